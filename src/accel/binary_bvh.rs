@@ -1,0 +1,258 @@
+//! The uncompressed binary BVH of the dual-split paper's comparison (Lin et
+//! al. 2019, §5): each inner node stores both children's boxes, so that a
+//! node is 52 bytes and a leaf only 4.
+//!
+//! Layout, in 32-bit words:
+//! - inner node (13 words): the left child's box `[min xyz, max xyz]`, the
+//!   right child's box, then a link word: bits 0–29 the word offset of the
+//!   left child, bit 31 set if the left child is a leaf, bit 30 if the right
+//!   one is. The right child follows the left directly (siblings adjacent),
+//!   at `offset + 1` or `offset + 13`.
+//! - leaf (1 word): the position of its first triangle in the index list.
+//!
+//! Nodes are placed depth-first, each sibling pair together. The triangle
+//! index list holds mesh triangle indices; the last one of each leaf has its
+//! sign bit set, so leaves store no count. The root's own box (the scene box)
+//! is kept beside the nodes and not counted in [`Accel::bytes`]: every
+//! structure has it.
+
+use super::Accel;
+use crate::bvh::{Bvh, NodeKind, ROOT};
+use crate::error::{Error, Result};
+use crate::geometry::{Aabb, Hit, Ray, Triangle};
+use crate::stats::Stats;
+use crate::traversal::{stack, MAX_STACK_DEPTH};
+use std::sync::Arc;
+
+/// Words in an inner node.
+pub const INNER_WORDS: usize = 13;
+/// Link bit: the left child is a leaf.
+pub const LEFT_LEAF: u32 = 1 << 31;
+/// Link bit: the right child is a leaf.
+pub const RIGHT_LEAF: u32 = 1 << 30;
+/// Link bits holding the left child's word offset.
+pub const OFFSET_MASK: u32 = (1 << 30) - 1;
+/// Index-list bit: the last triangle of a leaf. Also marks a leaf in a
+/// node reference (see [`NodeRef`]).
+pub const LAST: u32 = 1 << 31;
+
+/// A node reference as traversals hold it: the word offset, with bit 31 set
+/// for a leaf.
+pub type NodeRef = u32;
+
+#[derive(Clone, Debug)]
+pub struct BinaryBvh {
+    pub(crate) words: Vec<u32>,
+    pub(crate) index: Vec<u32>,
+    pub(crate) root: NodeRef,
+    pub(crate) root_bounds: Aabb,
+    pub(crate) triangles: Arc<[Triangle]>,
+    /// Word offsets of the nodes in placement (increasing) order, and their
+    /// canonical ids: only read by visit logs.
+    offsets: Vec<u32>,
+    ids: Vec<u32>,
+    inner_nodes: usize,
+    leaves: usize,
+}
+
+impl BinaryBvh {
+    /// Lays out `bvh` over `triangles` (the ones it was built from).
+    ///
+    /// Refuses a tree deeper than the traversal stack ([`MAX_STACK_DEPTH`])
+    /// or one whose nodes pass 2³⁰ words.
+    pub fn from_bvh(bvh: &Bvh, triangles: Arc<[Triangle]>) -> Result<Self> {
+        if bvh.stats.depth as usize >= MAX_STACK_DEPTH {
+            return Err(Error::Limit(format!(
+                "BVH depth {} exceeds the binary BVH layout's limit of {} levels; use a smaller scene or the hybrid builder",
+                bvh.stats.depth,
+                MAX_STACK_DEPTH - 1
+            )));
+        }
+        let words_needed = bvh.stats.inner_nodes * INNER_WORDS + bvh.stats.leaves;
+        if words_needed > OFFSET_MASK as usize {
+            return Err(Error::Limit(format!(
+                "{words_needed} node words exceed the binary BVH layout's 30-bit offsets ({} words)",
+                OFFSET_MASK
+            )));
+        }
+        let mut b = BinaryBvh {
+            words: Vec::with_capacity(words_needed),
+            index: Vec::with_capacity(bvh.prims.len()),
+            root: 0,
+            root_bounds: bvh.bounds(),
+            triangles,
+            offsets: Vec::with_capacity(bvh.nodes.len()),
+            ids: Vec::with_capacity(bvh.nodes.len()),
+            inner_nodes: bvh.stats.inner_nodes,
+            leaves: bvh.stats.leaves,
+        };
+        b.root = b.place(bvh, ROOT);
+        b.fill(bvh, ROOT, b.root);
+        debug_assert_eq!(b.words.len(), words_needed);
+        Ok(b)
+    }
+
+    /// Appends node `id`'s own words (zeroed link / leaf word) and returns
+    /// its reference.
+    fn place(&mut self, bvh: &Bvh, id: u32) -> NodeRef {
+        let at = self.words.len() as u32;
+        self.offsets.push(at);
+        self.ids.push(id);
+        match bvh.nodes[id as usize].kind {
+            NodeKind::Inner { .. } => {
+                self.words.resize(self.words.len() + INNER_WORDS, 0);
+                at
+            }
+            NodeKind::Leaf { .. } => {
+                self.words.push(0);
+                at | LAST
+            }
+        }
+    }
+
+    /// Writes the contents of node `id`, already placed at `r`, and places
+    /// its subtree.
+    fn fill(&mut self, bvh: &Bvh, id: u32, r: NodeRef) {
+        let node = &bvh.nodes[id as usize];
+        let at = (r & !LAST) as usize;
+        match node.kind {
+            NodeKind::Leaf { .. } => {
+                self.words[at] = self.index.len() as u32;
+                let prims = bvh.leaf_prims(node);
+                self.index.extend_from_slice(prims);
+                if let Some(last) = self.index.last_mut() {
+                    *last |= LAST;
+                }
+            }
+            NodeKind::Inner { left, right, .. } => {
+                let l = self.place(bvh, left);
+                let r = self.place(bvh, right);
+                for (k, c) in [left, right].into_iter().enumerate() {
+                    let bounds = bvh.nodes[c as usize].bounds.to_array();
+                    for (j, v) in bounds.into_iter().enumerate() {
+                        self.words[at + 6 * k + j] = v.to_bits();
+                    }
+                }
+                let mut link = l & !LAST;
+                if l & LAST != 0 {
+                    link |= LEFT_LEAF;
+                }
+                if r & LAST != 0 {
+                    link |= RIGHT_LEAF;
+                }
+                self.words[at + 12] = link;
+                self.fill(bvh, left, l);
+                self.fill(bvh, right, r);
+            }
+        }
+    }
+
+    /// The canonical node id of reference `r` (for visit logs).
+    pub(crate) fn canonical_id(&self, r: NodeRef) -> u32 {
+        let at = r & !LAST;
+        let k = self.offsets.binary_search(&at).expect("a placed node");
+        self.ids[k]
+    }
+
+    pub fn inner_nodes(&self) -> usize {
+        self.inner_nodes
+    }
+
+    pub fn leaves(&self) -> usize {
+        self.leaves
+    }
+
+    /// Bytes of the nodes: 52 per inner node, 4 per leaf.
+    pub fn node_bytes(&self) -> usize {
+        self.words.len() * 4
+    }
+
+    /// Bytes of the triangle index list: 4 per triangle reference.
+    pub fn index_bytes(&self) -> usize {
+        self.index.len() * 4
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.index.is_empty()
+    }
+}
+
+impl Accel for BinaryBvh {
+    fn name(&self) -> &'static str {
+        "bvh"
+    }
+
+    fn bytes(&self) -> usize {
+        self.node_bytes() + self.index_bytes()
+    }
+
+    fn closest_hit<S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
+        stack::trace::<S, false>(self, ray, stats)
+    }
+
+    fn any_hit<S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
+        stack::trace::<S, true>(self, ray, stats)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bvh::BuildOptions;
+    use crate::scene::Scene;
+
+    #[test]
+    fn storage_is_exact_and_nodes_decode_to_the_bvh() {
+        let scene = Scene::builtin("chess:3000").unwrap();
+        let bvh = Bvh::build(&scene.triangles, &BuildOptions::sah());
+        let b = BinaryBvh::from_bvh(&bvh, scene.triangles.clone()).unwrap();
+        let s = &bvh.stats;
+        assert_eq!(b.node_bytes(), 52 * s.inner_nodes + 4 * s.leaves);
+        assert_eq!(b.index_bytes(), 4 * bvh.prims.len());
+        assert_eq!(
+            b.bytes(),
+            52 * s.inner_nodes + 4 * s.leaves + 4 * bvh.prims.len()
+        );
+
+        // Walk the layout and compare every decoded node with the canonical one.
+        let mut todo = vec![(b.root, ROOT)];
+        let mut seen = 0;
+        while let Some((r, id)) = todo.pop() {
+            seen += 1;
+            assert_eq!(b.canonical_id(r), id);
+            let node = &bvh.nodes[id as usize];
+            let at = (r & !LAST) as usize;
+            match node.kind {
+                NodeKind::Leaf { .. } => {
+                    assert!(r & LAST != 0);
+                    let mut i = b.words[at] as usize;
+                    let mut prims = vec![];
+                    loop {
+                        prims.push(b.index[i] & !LAST);
+                        if b.index[i] & LAST != 0 {
+                            break;
+                        }
+                        i += 1;
+                    }
+                    assert_eq!(prims, bvh.leaf_prims(node));
+                }
+                NodeKind::Inner { left, right, .. } => {
+                    let link = b.words[at + 12];
+                    let l = link & OFFSET_MASK;
+                    let lsize = if link & LEFT_LEAF != 0 { 1 } else { 13 };
+                    let kids = [
+                        l | if link & LEFT_LEAF != 0 { LAST } else { 0 },
+                        (l + lsize) | if link & RIGHT_LEAF != 0 { LAST } else { 0 },
+                    ];
+                    for (k, (c, kr)) in [left, right].into_iter().zip(kids).enumerate() {
+                        let bits: [f32; 6] =
+                            std::array::from_fn(|j| f32::from_bits(b.words[at + 6 * k + j]));
+                        assert_eq!(Aabb::from_array(&bits), bvh.nodes[c as usize].bounds);
+                        todo.push((kr, c));
+                    }
+                }
+            }
+        }
+        assert_eq!(seen, bvh.nodes.len());
+    }
+}

@@ -1,0 +1,335 @@
+//! Top-down builders: binned SAH, and the stackless paper's hybrid (SAH for
+//! the top levels, median splits below). Subtrees are built in parallel.
+
+use super::binning::{best_split, Split};
+use super::{BuildStats, Bvh, Node, NodeKind, NO_PARENT};
+use crate::geometry::{Aabb, Triangle};
+use glam::Vec3;
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// Which split rule a build uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Builder {
+    /// Binned SAH at every level.
+    Sah,
+    /// Binned SAH for the top `sah_levels` levels, then median splits along
+    /// the axis of largest centroid spread (Barringer and Akenine-Möller 2013).
+    Hybrid,
+}
+
+impl Builder {
+    pub const ALL: [Builder; 2] = [Builder::Sah, Builder::Hybrid];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Builder::Sah => "sah",
+            Builder::Hybrid => "hybrid",
+        }
+    }
+}
+
+#[derive(Clone, Debug)]
+pub struct BuildOptions {
+    pub builder: Builder,
+    /// Leaves hold at most this many triangles (1..=255).
+    pub max_leaf_size: usize,
+    /// Levels split by SAH in the hybrid builder.
+    pub sah_levels: u32,
+    /// SAH bins per axis.
+    pub bins: usize,
+}
+
+/// Below this depth even the SAH builder switches to median splits, which
+/// halve the triangle count at each level: adversarial inputs (exponentially
+/// spaced triangles) cannot make the tree arbitrarily deep.
+const SAH_MAX_DEPTH: u32 = 64;
+/// Subtrees with more triangles than this are built on another thread.
+const PARALLEL_SUBTREE: usize = 4096;
+
+impl BuildOptions {
+    pub fn new(builder: Builder) -> Self {
+        BuildOptions {
+            builder,
+            max_leaf_size: 8,
+            sah_levels: 8,
+            bins: 32,
+        }
+    }
+
+    pub fn sah() -> Self {
+        Self::new(Builder::Sah)
+    }
+
+    pub fn hybrid() -> Self {
+        Self::new(Builder::Hybrid)
+    }
+
+    pub fn with_max_leaf_size(mut self, n: usize) -> Self {
+        self.max_leaf_size = n;
+        self
+    }
+}
+
+/// A subtree while building, before it is flattened into preorder.
+enum Tmp {
+    Leaf {
+        bounds: Aabb,
+        first: u32,
+        count: u32,
+    },
+    Inner {
+        bounds: Aabb,
+        axis: u8,
+        kids: Box<[Tmp; 2]>,
+    },
+}
+
+struct Ctx<'a> {
+    bounds: &'a [Aabb],
+    centroids: &'a [Vec3],
+    opts: &'a BuildOptions,
+}
+
+pub(super) fn build(triangles: &[Triangle], opts: &BuildOptions) -> Bvh {
+    assert!(
+        (1..=255).contains(&opts.max_leaf_size),
+        "max_leaf_size must be in 1..=255"
+    );
+    let start = Instant::now();
+    let bounds: Vec<Aabb> = triangles.par_iter().map(Triangle::bounds).collect();
+    let centroids: Vec<Vec3> = bounds.par_iter().map(Aabb::center).collect();
+    let mut prims: Vec<u32> = (0..triangles.len() as u32)
+        .into_par_iter()
+        .filter(|&i| !triangles[i as usize].is_degenerate())
+        .collect();
+    let degenerate = triangles.len() - prims.len();
+    let ctx = Ctx {
+        bounds: &bounds,
+        centroids: &centroids,
+        opts,
+    };
+    let tree = if prims.is_empty() {
+        Tmp::Leaf {
+            bounds: Aabb::EMPTY,
+            first: 0,
+            count: 0,
+        }
+    } else {
+        subtree(&ctx, &mut prims, 0, 0)
+    };
+    let mut nodes = Vec::with_capacity(2 * prims.len() / opts.max_leaf_size.max(1) + 1);
+    flatten(tree, NO_PARENT, 0, &mut nodes);
+    let mut bvh = Bvh {
+        nodes,
+        prims,
+        stats: BuildStats::default(),
+    };
+    let leaves = bvh.nodes.iter().filter(|n| n.is_leaf()).count();
+    bvh.stats = BuildStats {
+        builder: opts.builder.name().into(),
+        max_leaf_size: opts.max_leaf_size,
+        build_seconds: start.elapsed().as_secs_f64(),
+        nodes: bvh.nodes.len(),
+        inner_nodes: bvh.nodes.len() - leaves,
+        leaves,
+        depth: bvh.nodes.iter().map(|n| n.depth).max().unwrap_or(0),
+        sah_cost: bvh.sah_cost(),
+        degenerate_triangles: degenerate,
+    };
+    bvh
+}
+
+fn subtree(ctx: &Ctx, ids: &mut [u32], first: usize, depth: u32) -> Tmp {
+    let n = ids.len();
+    let (bounds, cbounds) = if n >= 1 << 15 {
+        ids.par_iter()
+            .map(|&i| {
+                (
+                    ctx.bounds[i as usize],
+                    Aabb::EMPTY.grow(ctx.centroids[i as usize]),
+                )
+            })
+            .reduce(
+                || (Aabb::EMPTY, Aabb::EMPTY),
+                |a, b| (a.0.union(b.0), a.1.union(b.1)),
+            )
+    } else {
+        ids.iter().fold((Aabb::EMPTY, Aabb::EMPTY), |(b, c), &i| {
+            (
+                b.union(ctx.bounds[i as usize]),
+                c.grow(ctx.centroids[i as usize]),
+            )
+        })
+    };
+    let leaf = || Tmp::Leaf {
+        bounds,
+        first: first as u32,
+        count: n as u32,
+    };
+    let max_leaf = ctx.opts.max_leaf_size;
+    let use_sah = match ctx.opts.builder {
+        Builder::Sah => depth < SAH_MAX_DEPTH,
+        Builder::Hybrid => depth < ctx.opts.sah_levels.min(SAH_MAX_DEPTH),
+    };
+    if n == 1 || (!use_sah && n <= max_leaf) {
+        return leaf();
+    }
+    let split: Option<Split> = if use_sah {
+        best_split(
+            ids,
+            ctx.bounds,
+            ctx.centroids,
+            bounds.area(),
+            &cbounds,
+            ctx.opts.bins,
+        )
+    } else {
+        None
+    };
+    let (mid, axis) = match split {
+        // SAH: a leaf when it is no dearer than the best split.
+        Some(s) if n <= max_leaf && s.cost >= n as f32 => return leaf(),
+        Some(s) => {
+            let mid = partition(ids, |i| s.map.bin(ctx.centroids[i as usize]) < s.bin);
+            (mid, s.map.axis)
+        }
+        None if n <= max_leaf => return leaf(),
+        None => {
+            // Median along the axis of largest centroid spread; ties by id, so
+            // that the result does not depend on the input order.
+            let axis = cbounds.largest_axis();
+            let mid = n / 2;
+            let key = |&i: &u32| (ctx.centroids[i as usize][axis], i);
+            ids.select_nth_unstable_by(mid, |a, b| key(a).partial_cmp(&key(b)).unwrap());
+            (mid, axis)
+        }
+    };
+    let (l, r) = ids.split_at_mut(mid);
+    let kids = if n > PARALLEL_SUBTREE {
+        rayon::join(
+            || subtree(ctx, l, first, depth + 1),
+            || subtree(ctx, r, first + mid, depth + 1),
+        )
+    } else {
+        (
+            subtree(ctx, l, first, depth + 1),
+            subtree(ctx, r, first + mid, depth + 1),
+        )
+    };
+    Tmp::Inner {
+        bounds,
+        axis: axis as u8,
+        kids: Box::new([kids.0, kids.1]),
+    }
+}
+
+/// Moves the ids for which `left` holds to the front; returns how many.
+fn partition(ids: &mut [u32], left: impl Fn(u32) -> bool) -> usize {
+    let mut mid = 0;
+    for k in 0..ids.len() {
+        if left(ids[k]) {
+            ids.swap(mid, k);
+            mid += 1;
+        }
+    }
+    mid
+}
+
+/// Appends `t` to `nodes` in preorder; returns its id.
+fn flatten(t: Tmp, parent: u32, depth: u32, nodes: &mut Vec<Node>) -> u32 {
+    let id = nodes.len() as u32;
+    match t {
+        Tmp::Leaf {
+            bounds,
+            first,
+            count,
+        } => nodes.push(Node {
+            bounds,
+            parent,
+            depth,
+            kind: NodeKind::Leaf { first, count },
+        }),
+        Tmp::Inner { bounds, axis, kids } => {
+            nodes.push(Node {
+                bounds,
+                parent,
+                depth,
+                kind: NodeKind::Inner {
+                    left: id + 1,
+                    right: 0,
+                    axis,
+                },
+            });
+            let [l, r] = *kids;
+            let left = flatten(l, id, depth + 1, nodes);
+            let right = flatten(r, id, depth + 1, nodes);
+            nodes[id as usize].kind = NodeKind::Inner { left, right, axis };
+        }
+    }
+    id
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::Scene;
+
+    #[test]
+    fn both_builders_make_valid_trees_for_every_leaf_size() {
+        let scene = Scene::builtin("chess:3000").unwrap();
+        for builder in Builder::ALL {
+            for leaf in [1, 2, 4, 8] {
+                let opts = BuildOptions::new(builder).with_max_leaf_size(leaf);
+                let bvh = Bvh::build(&scene.triangles, &opts);
+                bvh.validate(&scene.triangles).unwrap();
+                assert_eq!(bvh.stats.nodes, 2 * bvh.stats.leaves - 1);
+                assert!(bvh.stats.sah_cost > 0.0);
+            }
+        }
+    }
+
+    #[test]
+    fn build_is_deterministic_across_thread_counts() {
+        let scene = Scene::builtin("hairball:20000").unwrap();
+        let one = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap();
+        let a = one.install(|| Bvh::build(&scene.triangles, &BuildOptions::sah()));
+        let b = Bvh::build(&scene.triangles, &BuildOptions::sah());
+        assert_eq!(a.nodes, b.nodes);
+        assert_eq!(a.prims, b.prims);
+    }
+
+    #[test]
+    fn hybrid_is_balanced_below_the_sah_levels() {
+        let scene = Scene::builtin("hairball:20000").unwrap();
+        let bvh = Bvh::build(
+            &scene.triangles,
+            &BuildOptions::hybrid().with_max_leaf_size(1),
+        );
+        // Median splits halve the count below level 8.
+        let bound = 8 + (scene.triangles.len() as f64).log2().ceil() as u32 + 1;
+        assert!(bvh.stats.depth <= bound, "depth {}", bvh.stats.depth);
+    }
+
+    #[test]
+    fn identical_triangles_split_by_median() {
+        let t = Triangle::new(Vec3::ZERO, Vec3::X, Vec3::Y);
+        let tris = vec![t; 100];
+        let bvh = Bvh::build(&tris, &BuildOptions::sah().with_max_leaf_size(4));
+        bvh.validate(&tris).unwrap();
+        assert!(bvh.stats.depth <= 6);
+    }
+
+    #[test]
+    fn degenerate_triangles_are_left_out() {
+        let good = Triangle::new(Vec3::ZERO, Vec3::X, Vec3::Y);
+        let bad = Triangle::new(Vec3::ZERO, Vec3::X, Vec3::X);
+        let bvh = Bvh::build(&[bad, good, bad], &BuildOptions::sah());
+        assert_eq!(bvh.prims, vec![1]);
+        assert_eq!(bvh.stats.degenerate_triangles, 2);
+    }
+}

@@ -1,0 +1,148 @@
+//! The canonical binary BVH, from which every layout is derived.
+//!
+//! Nodes are stored in depth-first preorder: the root is node 0 and an inner
+//! node's left child directly follows it. Leaves hold ranges of
+//! [`Bvh::prims`], which lists mesh triangle indices. Degenerate triangles are
+//! left out: they can never be hit.
+
+mod binning;
+mod build;
+mod node;
+
+pub use build::{BuildOptions, Builder};
+pub use node::{Node, NodeKind};
+
+use crate::geometry::Aabb;
+use serde::Serialize;
+
+/// What a build reports.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct BuildStats {
+    pub builder: String,
+    pub max_leaf_size: usize,
+    pub build_seconds: f64,
+    pub nodes: usize,
+    pub inner_nodes: usize,
+    pub leaves: usize,
+    /// Depth of the deepest node; the root has depth 0.
+    pub depth: u32,
+    /// SAH cost with a traversal cost of 1 and an intersection cost of 1.
+    pub sah_cost: f64,
+    /// Triangles of the mesh left out because they have zero area.
+    pub degenerate_triangles: usize,
+}
+
+/// A binary BVH over triangle references.
+#[derive(Clone, Debug)]
+pub struct Bvh {
+    pub nodes: Vec<Node>,
+    /// Mesh triangle indices; leaves refer to ranges of it.
+    pub prims: Vec<u32>,
+    pub stats: BuildStats,
+}
+
+/// Node id of the root.
+pub const ROOT: u32 = 0;
+/// Parent link of the root.
+pub const NO_PARENT: u32 = u32::MAX;
+
+impl Bvh {
+    /// Builds a BVH over `triangles` (mesh order) with `options`.
+    pub fn build(triangles: &[crate::geometry::Triangle], options: &BuildOptions) -> Bvh {
+        build::build(triangles, options)
+    }
+
+    pub fn root(&self) -> &Node {
+        &self.nodes[ROOT as usize]
+    }
+
+    pub fn bounds(&self) -> Aabb {
+        self.root().bounds
+    }
+
+    /// The triangles of leaf node `node` (empty for an inner node).
+    pub fn leaf_prims(&self, node: &Node) -> &[u32] {
+        match node.kind {
+            NodeKind::Leaf { first, count } => {
+                &self.prims[first as usize..(first + count) as usize]
+            }
+            NodeKind::Inner { .. } => &[],
+        }
+    }
+
+    /// SAH cost (traversal 1, intersection 1), relative to the root's area.
+    pub fn sah_cost(&self) -> f64 {
+        let root_area = self.bounds().area() as f64;
+        if root_area <= 0.0 {
+            return self.prims.len() as f64;
+        }
+        self.nodes
+            .iter()
+            .map(|n| {
+                let a = n.bounds.area() as f64 / root_area;
+                match n.kind {
+                    NodeKind::Inner { .. } => a,
+                    NodeKind::Leaf { count, .. } => a * count as f64,
+                }
+            })
+            .sum()
+    }
+
+    /// Checks the tree's invariants and says which one fails: preorder with
+    /// the left child next, parent links and depths consistent, every box
+    /// holding its children's boxes (leaves: their triangles'), every
+    /// non-degenerate triangle in exactly one leaf, leaves within the size limit.
+    pub fn validate(&self, triangles: &[crate::geometry::Triangle]) -> Result<(), String> {
+        if self.nodes.is_empty() {
+            return Err("no nodes".into());
+        }
+        if self.root().parent != NO_PARENT || self.root().depth != 0 {
+            return Err("root has a parent or a depth".into());
+        }
+        let mut seen = vec![0u8; triangles.len()];
+        for (i, n) in self.nodes.iter().enumerate() {
+            match n.kind {
+                NodeKind::Inner { left, right, .. } => {
+                    if left as usize != i + 1
+                        || right as usize <= i + 1
+                        || right as usize >= self.nodes.len()
+                    {
+                        return Err(format!("node {i}: children {left}, {right} break preorder"));
+                    }
+                    for c in [left, right] {
+                        let child = &self.nodes[c as usize];
+                        if child.parent as usize != i || child.depth != n.depth + 1 {
+                            return Err(format!("node {c}: wrong parent or depth"));
+                        }
+                        if !n.bounds.contains(&child.bounds) {
+                            return Err(format!("node {i} does not contain child {c}"));
+                        }
+                    }
+                }
+                NodeKind::Leaf { count, .. } => {
+                    if count == 0 || count as usize > self.stats.max_leaf_size {
+                        return Err(format!("leaf {i} holds {count} triangles"));
+                    }
+                    for &p in self.leaf_prims(n) {
+                        let t = triangles
+                            .get(p as usize)
+                            .ok_or(format!("leaf {i}: bad triangle {p}"))?;
+                        if !n.bounds.contains(&t.bounds()) {
+                            return Err(format!("leaf {i} does not contain triangle {p}"));
+                        }
+                        seen[p as usize] += 1;
+                    }
+                }
+            }
+        }
+        for (p, (&s, t)) in seen.iter().zip(triangles).enumerate() {
+            let want = if t.is_degenerate() { 0 } else { 1 };
+            if s != want {
+                return Err(format!(
+                    "triangle {p} appears in {s} leaves, expected {want}"
+                ));
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,210 @@
+use super::Ray;
+use glam::Vec3;
+
+/// An axis-aligned box. The empty box has `min = +inf`, `max = -inf`, so that
+/// growing it by anything gives that thing.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Aabb {
+    pub min: Vec3,
+    pub max: Vec3,
+}
+
+impl Default for Aabb {
+    fn default() -> Self {
+        Self::EMPTY
+    }
+}
+
+impl Aabb {
+    pub const EMPTY: Aabb = Aabb {
+        min: Vec3::INFINITY,
+        max: Vec3::NEG_INFINITY,
+    };
+
+    pub fn new(min: Vec3, max: Vec3) -> Self {
+        Aabb { min, max }
+    }
+
+    /// The smallest box holding all `points`.
+    pub fn from_points(points: impl IntoIterator<Item = Vec3>) -> Self {
+        points.into_iter().fold(Self::EMPTY, |b, p| b.grow(p))
+    }
+
+    pub fn grow(self, p: Vec3) -> Self {
+        Aabb {
+            min: self.min.min(p),
+            max: self.max.max(p),
+        }
+    }
+
+    pub fn union(self, o: Aabb) -> Self {
+        Aabb {
+            min: self.min.min(o.min),
+            max: self.max.max(o.max),
+        }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.min.x > self.max.x || self.min.y > self.max.y || self.min.z > self.max.z
+    }
+
+    pub fn extent(&self) -> Vec3 {
+        (self.max - self.min).max(Vec3::ZERO)
+    }
+
+    pub fn center(&self) -> Vec3 {
+        (self.min + self.max) * 0.5
+    }
+
+    /// Surface area; 0 for the empty box.
+    pub fn area(&self) -> f32 {
+        if self.is_empty() {
+            return 0.0;
+        }
+        let e = self.extent();
+        2.0 * (e.x * e.y + e.y * e.z + e.z * e.x)
+    }
+
+    /// The axis of largest extent (first maximum on ties).
+    pub fn largest_axis(&self) -> usize {
+        let e = self.extent();
+        if e.x >= e.y && e.x >= e.z {
+            0
+        } else if e.y >= e.z {
+            1
+        } else {
+            2
+        }
+    }
+
+    pub fn contains(&self, o: &Aabb) -> bool {
+        self.min.cmple(o.min).all() && self.max.cmpge(o.max).all()
+    }
+
+    /// Slab test over `[ray.tmin, tmax]`: the entry distance, or `None` on a miss.
+    pub fn intersect(&self, ray: &Ray, tmax: f32) -> Option<f32> {
+        let t = BoxRay::new(ray).test(&self.to_array(), ray.tmin, tmax);
+        (t != f32::INFINITY).then_some(t)
+    }
+
+    /// `[min.x, min.y, min.z, max.x, max.y, max.z]`: the order in which layouts
+    /// store boxes and [`BoxRay::test`] reads them.
+    pub fn to_array(&self) -> [f32; 6] {
+        [
+            self.min.x, self.min.y, self.min.z, self.max.x, self.max.y, self.max.z,
+        ]
+    }
+
+    pub fn from_array(a: &[f32; 6]) -> Self {
+        Aabb::new(Vec3::new(a[0], a[1], a[2]), Vec3::new(a[3], a[4], a[5]))
+    }
+}
+
+/// Per-ray constants of the slab test, computed once per ray.
+///
+/// The near plane of each axis is chosen by the sign of the reciprocal
+/// direction, as an index into the box's six values: no swap per node.
+#[derive(Clone, Copy, Debug)]
+pub struct BoxRay {
+    pub org: [f32; 3],
+    pub inv: [f32; 3],
+    /// Index of the near plane of each axis in a `[min xyz, max xyz]` box.
+    pub near: [usize; 3],
+    /// Index of the far plane of each axis.
+    pub far: [usize; 3],
+}
+
+impl BoxRay {
+    pub fn new(ray: &Ray) -> Self {
+        let o = ray.origin();
+        let inv = ray.inv_direction();
+        let neg = |a: usize| inv[a].is_sign_negative() as usize;
+        BoxRay {
+            org: o.to_array(),
+            inv: inv.to_array(),
+            near: [3 * neg(0), 1 + 3 * neg(1), 2 + 3 * neg(2)],
+            far: [3 - 3 * neg(0), 4 - 3 * neg(1), 5 - 3 * neg(2)],
+        }
+    }
+
+    /// Entry distance of the ray into box `b` within `[tmin, tmax]`, or
+    /// `+inf` on a miss.
+    ///
+    /// `tnear = max(tmin, near slabs)`, `tfar = min(tmax, far slabs)`, hit iff
+    /// `tnear <= tfar`. A slab that is NaN (origin exactly on a plane of a
+    /// zero direction component: `0 * inf`) is ignored, because each
+    /// comparison keeps the accumulator when the slab value is NaN.
+    /// `tnear` does not depend on `tmax`, which the restart-trail traversal
+    /// relies on.
+    #[inline(always)]
+    pub fn test(&self, b: &[f32; 6], tmin: f32, tmax: f32) -> f32 {
+        let mut tn = tmin;
+        let mut tf = tmax;
+        for a in 0..3 {
+            let n = (b[self.near[a]] - self.org[a]) * self.inv[a];
+            let f = (b[self.far[a]] - self.org[a]) * self.inv[a];
+            tn = if n > tn { n } else { tn };
+            tf = if f < tf { f } else { tf };
+        }
+        if tn <= tf {
+            tn
+        } else {
+            f32::INFINITY
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn unit() -> Aabb {
+        Aabb::new(Vec3::ZERO, Vec3::ONE)
+    }
+
+    #[test]
+    fn hits_and_misses() {
+        let r = Ray::infinite(Vec3::new(-1.0, 0.5, 0.5), Vec3::X);
+        assert_eq!(unit().intersect(&r, f32::INFINITY), Some(1.0));
+        assert_eq!(unit().intersect(&r, 0.5), None);
+        let r = Ray::infinite(Vec3::new(-1.0, 1.5, 0.5), Vec3::X);
+        assert_eq!(unit().intersect(&r, f32::INFINITY), None);
+        // Pointing away.
+        let r = Ray::infinite(Vec3::new(-1.0, 0.5, 0.5), -Vec3::X);
+        assert_eq!(unit().intersect(&r, f32::INFINITY), None);
+    }
+
+    #[test]
+    fn origin_inside_enters_at_tmin() {
+        let r = Ray::new(Vec3::splat(0.5), Vec3::new(1.0, -2.0, 0.0), 0.25, 10.0);
+        assert_eq!(unit().intersect(&r, 10.0), Some(0.25));
+    }
+
+    #[test]
+    fn ray_in_a_face_plane_with_zero_component_is_kept() {
+        // Origin exactly on the plane y = 0 with d.y = 0: 0 * inf = NaN, ignored.
+        for dy in [0.0f32, -0.0] {
+            let r = Ray::infinite(Vec3::new(-1.0, 0.0, 0.5), Vec3::new(1.0, dy, 0.0));
+            assert_eq!(unit().intersect(&r, f32::INFINITY), Some(1.0));
+        }
+        // Just outside the slab with d.y = 0 misses.
+        let r = Ray::infinite(Vec3::new(-1.0, -1e-30, 0.5), Vec3::X);
+        assert_eq!(unit().intersect(&r, f32::INFINITY), None);
+    }
+
+    #[test]
+    fn flat_box_is_hit() {
+        let b = Aabb::new(Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 1.0));
+        let r = Ray::infinite(Vec3::new(0.5, 2.0, 0.5), -Vec3::Y);
+        assert_eq!(b.intersect(&r, f32::INFINITY), Some(2.0));
+    }
+
+    #[test]
+    fn area_and_axis() {
+        let b = Aabb::new(Vec3::ZERO, Vec3::new(1.0, 2.0, 3.0));
+        assert_eq!(b.area(), 22.0);
+        assert_eq!(b.largest_axis(), 2);
+        assert_eq!(Aabb::EMPTY.area(), 0.0);
+        assert!(Aabb::EMPTY.is_empty());
+    }
+}

@@ -1,0 +1,197 @@
+use super::{Aabb, Ray};
+use glam::{DVec3, Vec3};
+
+/// A triangle with vertices `a`, `b`, `c`.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct Triangle {
+    pub a: Vec3,
+    pub b: Vec3,
+    pub c: Vec3,
+}
+
+/// A ray-triangle hit: the distance `t` along the ray (in units of its
+/// direction), the triangle's index in the mesh, and the barycentrics `u`, `v`
+/// of the hit point `(1-u-v)·a + u·b + v·c`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    pub t: f32,
+    pub prim: u32,
+    pub u: f32,
+    pub v: f32,
+}
+
+impl Hit {
+    /// Whether `self` should replace `best`: nearer, or as near with a smaller
+    /// triangle index, so that the reported triangle does not depend on the
+    /// order in which a structure visits triangles that tie (shared edges).
+    #[inline(always)]
+    pub fn beats(&self, best: &Option<Hit>) -> bool {
+        match best {
+            None => true,
+            Some(b) => self.t < b.t || (self.t == b.t && self.prim < b.prim),
+        }
+    }
+}
+
+impl Triangle {
+    pub fn new(a: Vec3, b: Vec3, c: Vec3) -> Self {
+        Triangle { a, b, c }
+    }
+
+    pub fn bounds(&self) -> Aabb {
+        Aabb::from_points([self.a, self.b, self.c])
+    }
+
+    pub fn centroid(&self) -> Vec3 {
+        (self.a + self.b + self.c) * (1.0 / 3.0)
+    }
+
+    /// The geometric normal `(b-a)×(c-a)`, not normalized.
+    pub fn normal(&self) -> Vec3 {
+        (self.b - self.a).cross(self.c - self.a)
+    }
+
+    /// Zero area, judged in f64 so that tiny but real triangles are kept.
+    /// Structures leave such triangles out: they can never be hit.
+    pub fn is_degenerate(&self) -> bool {
+        let (a, b, c) = (self.a.as_dvec3(), self.b.as_dvec3(), self.c.as_dvec3());
+        (b - a).cross(c - a) == DVec3::ZERO
+    }
+
+    /// The watertight test of Woop, Benthin and Wald (JCGT 2013), without
+    /// backface culling, over `[tmin, tmax]` (both inclusive). Returns
+    /// `(t, u, v)`.
+    ///
+    /// The ray is sheared so that it runs along +z through the origin; the
+    /// three 2D edge functions are computed from the sheared vertices, and
+    /// redone in f64 when one is exactly zero, so their signs are exact. An
+    /// edge shared by two triangles therefore gets edge functions of exactly
+    /// opposite sign: no ray slips between them. No FMA is used on purpose.
+    #[inline(always)]
+    pub fn intersect(&self, ray: &Ray, tmin: f32, tmax: f32) -> Option<(f32, f32, f32)> {
+        let [kx, ky, kz] = ray.k;
+        let s = ray.shear;
+        let o = ray.origin();
+        let a = (self.a - o).to_array();
+        let b = (self.b - o).to_array();
+        let c = (self.c - o).to_array();
+        let ax = a[kx] - s.x * a[kz];
+        let ay = a[ky] - s.y * a[kz];
+        let bx = b[kx] - s.x * b[kz];
+        let by = b[ky] - s.y * b[kz];
+        let cx = c[kx] - s.x * c[kz];
+        let cy = c[ky] - s.y * c[kz];
+        let mut u = cx * by - cy * bx;
+        let mut v = ax * cy - ay * cx;
+        let mut w = bx * ay - by * ax;
+        if u == 0.0 || v == 0.0 || w == 0.0 {
+            let f =
+                |p: f32, q: f32, r: f32, t: f32| (p as f64 * q as f64 - r as f64 * t as f64) as f32;
+            u = f(cx, by, cy, bx);
+            v = f(ax, cy, ay, cx);
+            w = f(bx, ay, by, ax);
+        }
+        if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+            return None;
+        }
+        let det = u + v + w;
+        if det == 0.0 {
+            return None;
+        }
+        let az = s.z * a[kz];
+        let bz = s.z * b[kz];
+        let cz = s.z * c[kz];
+        let t_scaled = u * az + v * bz + w * cz;
+        // Flip T by det's sign so that the comparisons need no division.
+        let sign = det.to_bits() & 0x8000_0000;
+        let t_abs = f32::from_bits(t_scaled.to_bits() ^ sign);
+        let det_abs = det.abs();
+        if t_abs < tmin * det_abs || t_abs > tmax * det_abs {
+            return None;
+        }
+        let rcp = 1.0 / det;
+        Some((t_scaled * rcp, v * rcp, w * rcp))
+    }
+
+    /// [`Self::intersect`] as a [`Hit`] for triangle `prim`.
+    #[inline(always)]
+    pub fn hit(&self, ray: &Ray, tmin: f32, tmax: f32, prim: u32) -> Option<Hit> {
+        self.intersect(ray, tmin, tmax)
+            .map(|(t, u, v)| Hit { t, prim, u, v })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tri() -> Triangle {
+        Triangle::new(Vec3::ZERO, Vec3::X, Vec3::Y)
+    }
+
+    #[test]
+    fn hit_from_both_sides_with_barycentrics() {
+        for dz in [-1.0f32, 1.0] {
+            let r = Ray::infinite(Vec3::new(0.25, 0.5, dz * -2.0), Vec3::new(0.0, 0.0, dz));
+            let (t, u, v) = tri().intersect(&r, r.tmin, r.tmax).unwrap();
+            assert_eq!(t, 2.0);
+            assert!((u - 0.25).abs() < 1e-6 && (v - 0.5).abs() < 1e-6, "{u} {v}");
+        }
+    }
+
+    #[test]
+    fn unnormalized_direction_scales_t() {
+        let r = Ray::infinite(Vec3::new(0.25, 0.25, -2.0), Vec3::new(0.0, 0.0, 4.0));
+        assert_eq!(tri().intersect(&r, 0.0, f32::INFINITY).unwrap().0, 0.5);
+    }
+
+    #[test]
+    fn interval_is_inclusive_and_respected() {
+        let r = Ray::infinite(Vec3::new(0.25, 0.25, -2.0), Vec3::Z);
+        assert!(tri().intersect(&r, 0.0, 2.0).is_some());
+        assert!(tri().intersect(&r, 0.0, 1.999).is_none());
+        assert!(tri().intersect(&r, 2.001, 5.0).is_none());
+    }
+
+    #[test]
+    fn degenerate_triangles_are_never_hit() {
+        let d = Triangle::new(Vec3::ZERO, Vec3::X, Vec3::X * 2.0);
+        assert!(d.is_degenerate());
+        let r = Ray::infinite(Vec3::new(0.5, 1.0, 0.0), -Vec3::Y);
+        assert!(d.intersect(&r, 0.0, f32::INFINITY).is_none());
+        let p = Triangle::new(Vec3::ONE, Vec3::ONE, Vec3::ONE);
+        assert!(p.is_degenerate());
+        assert!(!tri().is_degenerate());
+    }
+
+    #[test]
+    fn shared_edge_is_hit_by_both_triangles() {
+        let t1 = Triangle::new(Vec3::ZERO, Vec3::X, Vec3::Y);
+        let t2 = Triangle::new(Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y);
+        // A point on the diagonal edge, from an oblique direction.
+        let p = Vec3::new(0.3, 0.7, 0.0);
+        let r = Ray::infinite(p - Vec3::new(0.1, 0.3, 1.0), Vec3::new(0.1, 0.3, 1.0));
+        let h1 = t1.intersect(&r, 0.0, f32::INFINITY);
+        let h2 = t2.intersect(&r, 0.0, f32::INFINITY);
+        assert!(h1.is_some() || h2.is_some());
+    }
+
+    #[test]
+    fn tie_break_prefers_smaller_index() {
+        let a = Hit {
+            t: 1.0,
+            prim: 3,
+            u: 0.0,
+            v: 0.0,
+        };
+        let b = Hit {
+            t: 1.0,
+            prim: 2,
+            u: 0.0,
+            v: 0.0,
+        };
+        assert!(b.beats(&Some(a)));
+        assert!(!a.beats(&Some(b)));
+        assert!(a.beats(&None));
+    }
+}

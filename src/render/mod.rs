@@ -1,0 +1,1 @@
+//! Integrators and images (see the CLI issue).

@@ -1,0 +1,73 @@
+//! Meshes, their loaders, built-in procedural scenes and cameras.
+
+mod camera;
+mod mesh;
+mod obj;
+mod ply;
+pub mod procedural;
+
+pub use camera::Camera;
+pub use mesh::Mesh;
+
+use crate::error::{Error, Result};
+use crate::geometry::Triangle;
+use std::path::Path;
+use std::sync::Arc;
+
+/// A mesh, its expanded triangles (shared by every structure built over it)
+/// and a camera.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    /// The built-in name with its size (`chess:64000`), or the file path.
+    pub name: String,
+    pub mesh: Mesh,
+    /// `triangles[i]` is triangle `i` of the mesh, in file order.
+    pub triangles: Arc<[Triangle]>,
+    pub camera: Camera,
+}
+
+impl Scene {
+    pub fn new(name: impl Into<String>, mesh: Mesh, camera: Camera) -> Self {
+        let triangles = mesh.triangles().into();
+        Scene {
+            name: name.into(),
+            mesh,
+            triangles,
+            camera,
+        }
+    }
+
+    /// A scene from an OBJ or PLY file, with a camera that frames its bounds.
+    pub fn load(path: impl AsRef<Path>) -> Result<Scene> {
+        let path = path.as_ref();
+        let mesh = Mesh::load(path)?;
+        let camera = Camera::framing(&mesh.bounds());
+        Ok(Scene::new(path.display().to_string(), mesh, camera))
+    }
+
+    /// A built-in scene by `name` or `name:size`, size being the approximate
+    /// triangle count: see [`procedural::BUILTIN`].
+    pub fn builtin(spec: &str) -> Result<Scene> {
+        procedural::build(spec)
+    }
+
+    /// A built-in scene name (`chess`, `hairball:300000`) or a path to an OBJ
+    /// or PLY file.
+    pub fn from_spec(spec: &str) -> Result<Scene> {
+        let base = spec.split(':').next().unwrap_or(spec);
+        if procedural::BUILTIN.iter().any(|b| b.name == base) {
+            Scene::builtin(spec)
+        } else if Path::new(spec).extension().is_some() || Path::new(spec).exists() {
+            Scene::load(spec)
+        } else {
+            Err(Error::Invalid(format!(
+                "unknown scene '{spec}': not a file, nor a built-in scene ({})",
+                procedural::BUILTIN
+                    .iter()
+                    .map(|b| b.name)
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )))
+        }
+    }
+}

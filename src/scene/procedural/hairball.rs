@@ -1,0 +1,50 @@
+//! A hairball: many thin curved tubes tangled inside a sphere, like the
+//! HAIRBALL scene: irregular, deep, full of overlapping boxes.
+
+use super::shapes::push_tube;
+use crate::rng::Pcg32;
+use crate::scene::{Camera, Mesh, Scene};
+use glam::Vec3;
+
+const SIDES: usize = 6;
+const POINTS: usize = 80;
+const TRIANGLES_PER_TUBE: usize = (POINTS - 1) * SIDES * 2;
+const SEED: u64 = 0x4841_4952;
+
+pub fn scene(target_triangles: usize) -> Scene {
+    let tubes = (target_triangles as f32 / TRIANGLES_PER_TUBE as f32)
+        .round()
+        .max(1.0) as usize;
+    let mut rng = Pcg32::new(SEED, 7);
+    let unit = |rng: &mut Pcg32| loop {
+        let v = Vec3::new(
+            rng.range(-1.0, 1.0),
+            rng.range(-1.0, 1.0),
+            rng.range(-1.0, 1.0),
+        );
+        let l = v.length_squared();
+        if l > 1e-4 && l <= 1.0 {
+            return v;
+        }
+    };
+    let mut mesh = Mesh::default();
+    let mut path = Vec::with_capacity(POINTS);
+    for _ in 0..tubes {
+        path.clear();
+        let mut p = unit(&mut rng) * 0.85;
+        let mut dir = unit(&mut rng).normalize();
+        let step = 0.035;
+        for _ in 0..POINTS {
+            path.push(p);
+            // A wandering direction, steered back when it nears the shell.
+            dir = (dir + unit(&mut rng) * 0.35).normalize();
+            if p.length() > 0.9 {
+                dir = (dir - p.normalize() * 0.6).normalize();
+            }
+            p += dir * step;
+        }
+        push_tube(&mut mesh, &path, 0.004, SIDES);
+    }
+    let camera = Camera::new(Vec3::new(0.4, 0.3, 3.1), Vec3::ZERO, Vec3::Y, 40.0);
+    Scene::new("hairball", mesh, camera)
+}
