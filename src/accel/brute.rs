@@ -54,3 +54,12 @@ impl Accel for BruteForce {
         None
     }
 }
+
+impl BruteForce {
+    /// The hit of triangle `prim` alone over the ray's interval.
+    pub fn hit_of(&self, prim: u32, ray: &Ray) -> Option<Hit> {
+        self.triangles
+            .get(prim as usize)?
+            .hit(ray, ray.tmin, ray.tmax, prim)
+    }
+}

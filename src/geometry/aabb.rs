@@ -100,6 +100,12 @@ impl Aabb {
     }
 }
 
+/// `2γ₃ = 2·3u/(1-3u)` with `u = 2⁻²⁴`: the relative error bound of a slab
+/// distance `(b - o) · inv` (three roundings), doubled to cover both the
+/// near and the far distance.
+pub const ROBUST_WIDENING: f32 =
+    2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
+
 /// Per-ray constants of the slab test, computed once per ray.
 ///
 /// The near plane of each axis is chosen by the sign of the reciprocal
@@ -136,16 +142,24 @@ impl BoxRay {
     /// comparison keeps the accumulator when the slab value is NaN.
     /// `tnear` does not depend on `tmax`, which the restart-trail traversal
     /// relies on.
+    ///
+    /// The test is conservative (Ize 2013; Woop et al. 2013, §5): the exit
+    /// distance is widened by `2γ₃` of itself, the most that the rounding of
+    /// `(b - o) · inv` can move it. Without this a ray hitting a triangle
+    /// exactly at a vertex or edge that lies on its box's boundary can
+    /// compute `tnear > tfar` and lose the hit the watertight test found.
     #[inline(always)]
     pub fn test(&self, b: &[f32; 6], tmin: f32, tmax: f32) -> f32 {
         let mut tn = tmin;
-        let mut tf = tmax;
+        let mut tf = f32::INFINITY;
         for a in 0..3 {
             let n = (b[self.near[a]] - self.org[a]) * self.inv[a];
             let f = (b[self.far[a]] - self.org[a]) * self.inv[a];
             tn = if n > tn { n } else { tn };
             tf = if f < tf { f } else { tf };
         }
+        tf += tf.abs() * ROBUST_WIDENING;
+        tf = if tmax < tf { tmax } else { tf };
         if tn <= tf {
             tn
         } else {

@@ -3,7 +3,7 @@
 
 mod chess;
 mod hairball;
-mod shapes;
+pub mod shapes;
 
 use super::Scene;
 use crate::error::{Error, Result};

@@ -1,0 +1,135 @@
+//! Every structure agrees with the brute-force oracle on mixed ray sets.
+
+mod common;
+
+use rayon::prelude::*;
+use raytree::prelude::*;
+
+/// Closest hits must be identical (same t, triangle and barycentrics: the
+/// same triangle test and tie rule run in both); any-hit answers must agree
+/// on hit or miss, and a reported hit must lie within the ray's interval.
+fn check<A: Accel>(accel: &A, oracle: &BruteForce, rays: &[Ray], what: &str) {
+    let bad: Vec<String> = rays
+        .par_iter()
+        .enumerate()
+        .filter_map(|(i, r)| {
+            let want = oracle.closest_hit(r, &mut NoStats);
+            let got = accel.closest_hit(r, &mut NoStats);
+            if !same_closest(got, want, oracle, r) {
+                return Some(format!("ray {i} {r:?}: closest {got:?}, oracle {want:?}"));
+            }
+            let any = accel.any_hit(r, &mut NoStats);
+            if any.is_some() != want.is_some() {
+                return Some(format!("ray {i}: any-hit {any:?}, oracle {want:?}"));
+            }
+            if let Some(h) = any {
+                if !(h.t >= r.tmin && h.t <= r.tmax) {
+                    return Some(format!("ray {i}: any-hit t {} outside interval", h.t));
+                }
+            }
+            None
+        })
+        .collect();
+    assert!(
+        bad.is_empty(),
+        "{what}: {} of {} rays disagree; first: {}",
+        bad.len(),
+        rays.len(),
+        bad[0]
+    );
+}
+
+/// The same closest hit, up to what f32 coordinates can tell apart.
+///
+/// The hit must be a genuine hit of its triangle (the oracle's test of that
+/// triangle alone gives exactly it), and its distance must match the
+/// oracle's to a relative 1e-5, where "relative" is measured in space: of
+/// the larger of the distance travelled and the origin's magnitude. f32
+/// positions carry about 6e-8 of their magnitude, so two coplanar triangles
+/// (a tile's bottom on the board frame's top) can be hit 1e-5 of `t` apart
+/// when a ray travels a short way among large coordinates. In practice
+/// almost every hit is bit-identical: the same triangle test and tie rule
+/// run in both.
+fn same_closest(got: Option<Hit>, want: Option<Hit>, oracle: &BruteForce, r: &Ray) -> bool {
+    match (got, want) {
+        (None, None) => true,
+        (Some(g), Some(w)) => {
+            let len = r.direction().length();
+            let scale = (w.t * len).abs().max(r.origin().abs().max_element());
+            let close = ((g.t - w.t) * len).abs() <= 1e-5 * scale;
+            close && oracle.hit_of(g.prim, r) == Some(g)
+        }
+        _ => false,
+    }
+}
+
+fn check_scene(scene: &Scene, rays: usize) {
+    let rays = common::mixed_rays(scene, rays, 7);
+    let oracle = BruteForce::new(scene.triangles.clone());
+    let hits = rays
+        .iter()
+        .filter(|r| oracle.any_hit(r, &mut NoStats).is_some())
+        .count();
+    assert!(
+        hits > rays.len() / 5 && hits < rays.len(),
+        "{}: a poor ray set ({hits} hits)",
+        scene.name
+    );
+    for builder in Builder::ALL {
+        let bvh = Bvh::build(&scene.triangles, &BuildOptions::new(builder));
+        bvh.validate(&scene.triangles).unwrap();
+        let layout = BinaryBvh::from_bvh(&bvh, scene.triangles.clone()).unwrap();
+        check(
+            &layout,
+            &oracle,
+            &rays,
+            &format!("{} bvh/{}", scene.name, builder.name()),
+        );
+    }
+}
+
+#[test]
+fn chess_agrees_with_oracle() {
+    check_scene(&Scene::builtin("chess:2000").unwrap(), 100_000);
+}
+
+#[test]
+fn hairball_agrees_with_oracle() {
+    check_scene(&Scene::builtin("hairball:3000").unwrap(), 100_000);
+}
+
+#[test]
+fn shared_meshes_agree_with_oracle() {
+    for (name, rays) in [
+        ("teapot.obj", 100_000),
+        ("bunny.obj", 20_000),
+        ("battlefield.obj", 20_000),
+    ] {
+        match common::shared_scene(name) {
+            Some(p) => check_scene(&Scene::load(p).unwrap(), rays),
+            None => eprintln!("skipping {name}: ../shared/scenes is not present"),
+        }
+    }
+}
+
+#[test]
+fn every_leaf_size_agrees_with_oracle() {
+    let scene = Scene::builtin("hairball:2000").unwrap();
+    let rays = common::mixed_rays(&scene, 10_000, 3);
+    let oracle = BruteForce::new(scene.triangles.clone());
+    for leaf in 1..=8 {
+        for builder in Builder::ALL {
+            let bvh = Bvh::build(
+                &scene.triangles,
+                &BuildOptions::new(builder).with_max_leaf_size(leaf),
+            );
+            let layout = BinaryBvh::from_bvh(&bvh, scene.triangles.clone()).unwrap();
+            check(
+                &layout,
+                &oracle,
+                &rays,
+                &format!("leaf {leaf} {}", builder.name()),
+            );
+        }
+    }
+}
