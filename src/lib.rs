@@ -20,6 +20,7 @@ pub mod accel;
 pub mod bvh;
 pub mod error;
 pub mod geometry;
+pub mod rayfile;
 pub mod render;
 pub mod rng;
 pub mod scene;

@@ -4,9 +4,11 @@
 
 pub(crate) mod binary_bvh;
 mod brute;
+mod select;
 
 pub use binary_bvh::BinaryBvh;
 pub use brute::BruteForce;
+pub use select::{check, Built, StructureInfo, StructureKind, TraversalKind, WithAccel};
 
 use crate::geometry::{Hit, Ray};
 use crate::stats::Stats;

@@ -1,1 +1,168 @@
-//! Integrators and images (see the CLI issue).
+//! Integrators (ambient occlusion, diffuse path tracing), rendered in tiles
+//! over rayon, and the images they produce.
+//!
+//! Every pixel draws its random numbers from its own stream, seeded by the
+//! pixel and sample index, so an image is bit-identical for any thread count.
+
+mod ao;
+mod image;
+mod path;
+mod sampling;
+
+pub use self::image::{write_atomically, Image};
+pub use ao::AoSettings;
+pub use path::PathSettings;
+
+use crate::accel::Accel;
+use crate::scene::Scene;
+use crate::stats::{Counters, NoStats, Stats};
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// Which integrator, with its settings.
+#[derive(Clone, Debug)]
+pub enum Integrator {
+    Ao(AoSettings),
+    Path(PathSettings),
+}
+
+/// What a render produced and measured.
+#[derive(Clone, Debug)]
+pub struct Rendered {
+    pub image: Image,
+    /// Rays traced (eye, AO and bounce rays) and, when counted, the work.
+    pub counters: Counters,
+    pub seconds: f64,
+}
+
+/// Image tiles are this many pixels square.
+const TILE: usize = 16;
+
+/// Renders `scene` through `accel`. With `count`, traversal work is counted
+/// (which costs a little time); without, only rays are counted.
+/// `progress` is called once per finished tile with the number of tiles.
+pub fn render<A: Accel>(
+    accel: &A,
+    scene: &Scene,
+    integrator: &Integrator,
+    width: usize,
+    height: usize,
+    count: bool,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Rendered {
+    let start = Instant::now();
+    let tiles_x = width.div_ceil(TILE);
+    let tiles: Vec<(usize, usize)> = (0..height.div_ceil(TILE))
+        .flat_map(|ty| (0..tiles_x).map(move |tx| (tx, ty)))
+        .collect();
+    let ctx = Ctx {
+        scene,
+        width,
+        height,
+    };
+    let results: Vec<(Vec<f32>, Counters)> = tiles
+        .par_iter()
+        .map(|&(tx, ty)| {
+            let r = if count {
+                let mut c = Counters::default();
+                let px = render_tile(accel, &ctx, integrator, tx, ty, &mut c);
+                (px, c)
+            } else {
+                let mut rays = RayCount(0);
+                let px = render_tile(accel, &ctx, integrator, tx, ty, &mut rays);
+                (
+                    px,
+                    Counters {
+                        rays: rays.0,
+                        ..Default::default()
+                    },
+                )
+            };
+            progress(1);
+            r
+        })
+        .collect();
+    let mut image = Image::new(width, height);
+    let mut counters = Counters::default();
+    for (&(tx, ty), (px, c)) in tiles.iter().zip(results) {
+        counters += c;
+        let mut k = 0;
+        for y in ty * TILE..((ty + 1) * TILE).min(height) {
+            for x in tx * TILE..((tx + 1) * TILE).min(width) {
+                image.set(x, y, px[k]);
+                k += 1;
+            }
+        }
+    }
+    Rendered {
+        image,
+        counters,
+        seconds: start.elapsed().as_secs_f64(),
+    }
+}
+
+/// The number of tiles `render` reports progress over.
+pub fn tile_count(width: usize, height: usize) -> usize {
+    width.div_ceil(TILE) * height.div_ceil(TILE)
+}
+
+struct Ctx<'a> {
+    scene: &'a Scene,
+    width: usize,
+    height: usize,
+}
+
+/// A sink that counts only what the caller adds to `rays`: the traversal's
+/// own counting compiles away as with [`NoStats`].
+struct RayCount(u64);
+
+impl Stats for RayCount {
+    #[inline(always)]
+    fn node(&mut self, id: impl FnOnce() -> u32) {
+        NoStats.node(id)
+    }
+    #[inline(always)]
+    fn planes(&mut self, _: u32) {}
+    #[inline(always)]
+    fn triangles(&mut self, _: u32) {}
+}
+
+/// Sinks that know how many rays were traced.
+trait RaySink: Stats {
+    fn ray(&mut self);
+}
+
+impl RaySink for Counters {
+    #[inline(always)]
+    fn ray(&mut self) {
+        self.rays += 1;
+    }
+}
+
+impl RaySink for RayCount {
+    #[inline(always)]
+    fn ray(&mut self) {
+        self.0 += 1;
+    }
+}
+
+fn render_tile<A: Accel, S: RaySink>(
+    accel: &A,
+    ctx: &Ctx,
+    integrator: &Integrator,
+    tx: usize,
+    ty: usize,
+    stats: &mut S,
+) -> Vec<f32> {
+    let mut out = Vec::with_capacity(TILE * TILE);
+    for y in ty * TILE..((ty + 1) * TILE).min(ctx.height) {
+        for x in tx * TILE..((tx + 1) * TILE).min(ctx.width) {
+            let pixel = (y * ctx.width + x) as u64;
+            out.push(match integrator {
+                Integrator::Ao(s) => ao::pixel(accel, ctx, s, x, y, pixel, stats),
+                Integrator::Path(s) => path::pixel(accel, ctx, s, x, y, pixel, stats),
+            });
+        }
+    }
+    out
+}

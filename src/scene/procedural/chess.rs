@@ -5,8 +5,11 @@ use super::shapes::{push_box, push_lathe, resample};
 use crate::scene::{Camera, Mesh, Scene};
 use glam::Vec3;
 
-/// One tile's width in scene units.
-const SQUARE: f32 = 10.0;
+/// One tile's width in scene units: the board is 500 units wide, as in the
+/// paper's CHESS scene, so that its camera and AO radius (32) carry over.
+const SQUARE: f32 = 62.5;
+/// Piece profiles are in units of this (the king is about 68 units tall).
+const PIECE: f32 = 37.5;
 
 const PAWN: &[(f32, f32)] = &[
     (0.0, 0.0),
@@ -114,19 +117,19 @@ pub fn scene(target_triangles: usize) -> Scene {
     let half = 4.0 * SQUARE;
     push_box(
         &mut mesh,
-        Vec3::new(-half - 4.0, -4.0, -half - 4.0),
-        Vec3::new(half + 4.0, -1.0, half + 4.0),
+        Vec3::new(-half - 20.0, -12.0, -half - 20.0),
+        Vec3::new(half + 20.0, -4.0, half + 20.0),
     );
     for row in 0..8 {
         for col in 0..8 {
             let lo = Vec3::new(
                 -half + col as f32 * SQUARE,
-                -1.0,
+                -4.0,
                 -half + row as f32 * SQUARE,
             );
-            // Dark tiles stand a little higher, so that the board has relief.
-            let top = if (row + col) % 2 == 0 { 0.0 } else { -0.3 };
-            push_box(&mut mesh, lo, lo + Vec3::new(SQUARE, 1.0 + top, SQUARE));
+            // Light tiles stand a little higher, so that the board has relief.
+            let top = if (row + col) % 2 == 0 { 0.0 } else { -1.5 };
+            push_box(&mut mesh, lo, lo + Vec3::new(SQUARE, 4.0 + top, SQUARE));
         }
     }
     let profiles: Vec<_> = [PAWN, ROOK, KNIGHT, BISHOP, QUEEN, KING]
@@ -147,20 +150,21 @@ pub fn scene(target_triangles: usize) -> Scene {
             -half + (row as f32 + 0.5) * SQUARE,
         )
     };
-    for col in 0..8 {
-        for (row, piece) in [(0, BACK_ROW[col]), (1, PAWN), (6, PAWN), (7, BACK_ROW[col])] {
+    for (col, back) in BACK_ROW.into_iter().enumerate() {
+        for (row, piece) in [(0, back), (1, PAWN), (6, PAWN), (7, back)] {
             push_lathe(
                 &mut mesh,
                 profile_of(piece),
                 segments,
                 center(row, col),
-                SQUARE,
+                PIECE,
             );
         }
     }
+    // The paper's view: eye (300, 100, 300) towards (0, 10, 0), 50 degrees.
     let camera = Camera::new(
-        Vec3::new(75.0, 38.0, 75.0),
-        Vec3::new(0.0, 2.0, 0.0),
+        Vec3::new(300.0, 100.0, 300.0),
+        Vec3::new(0.0, 10.0, 0.0),
         Vec3::Y,
         50.0,
     );

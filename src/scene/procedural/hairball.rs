@@ -7,7 +7,7 @@ use crate::scene::{Camera, Mesh, Scene};
 use glam::Vec3;
 
 const SIDES: usize = 6;
-const POINTS: usize = 80;
+const POINTS: usize = 60;
 const TRIANGLES_PER_TUBE: usize = (POINTS - 1) * SIDES * 2;
 const SEED: u64 = 0x4841_4952;
 
@@ -15,6 +15,9 @@ pub fn scene(target_triangles: usize) -> Scene {
     let tubes = (target_triangles as f32 / TRIANGLES_PER_TUBE as f32)
         .round()
         .max(1.0) as usize;
+    // Thinner tubes as there are more of them, so that the ball is about as
+    // opaque at every size.
+    let radius = 0.012 * (100_000.0 / target_triangles as f32).sqrt();
     let mut rng = Pcg32::new(SEED, 7);
     let unit = |rng: &mut Pcg32| loop {
         let v = Vec3::new(
@@ -43,7 +46,7 @@ pub fn scene(target_triangles: usize) -> Scene {
             }
             p += dir * step;
         }
-        push_tube(&mut mesh, &path, 0.004, SIDES);
+        push_tube(&mut mesh, &path, radius, SIDES);
     }
     let camera = Camera::new(Vec3::new(0.4, 0.3, 3.1), Vec3::ZERO, Vec3::Y, 40.0);
     Scene::new("hairball", mesh, camera)

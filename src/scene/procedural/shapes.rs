@@ -99,14 +99,14 @@ pub fn push_tube(mesh: &mut Mesh, path: &[Vec3], radius: f32, sides: usize) {
         (b - a).normalize_or(Vec3::X)
     };
     let mut normal = tangent(0).any_orthonormal_vector();
-    for i in 0..path.len() {
+    for (i, &p) in path.iter().enumerate() {
         let t = tangent(i);
         normal = (normal - t * normal.dot(t)).normalize_or(t.any_orthonormal_vector());
         let binormal = t.cross(normal);
         for j in 0..sides {
             let a = std::f32::consts::TAU * j as f32 / sides as f32;
             mesh.positions
-                .push(path[i] + (normal * a.cos() + binormal * a.sin()) * radius);
+                .push(p + (normal * a.cos() + binormal * a.sin()) * radius);
         }
     }
     let s = sides as u32;

@@ -1,0 +1,289 @@
+//! Structures and traversals by name, as the command line, the JSON reports
+//! and the benchmarks spell them, and the dispatch from a name to a
+//! monomorphized trace.
+
+use super::{Accel, BinaryBvh, BruteForce};
+use crate::bvh::Bvh;
+use crate::error::{Error, Result};
+use crate::geometry::Triangle;
+use serde::Serialize;
+use std::sync::Arc;
+use std::time::Instant;
+
+/// Every structure raytree names.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, clap::ValueEnum, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum StructureKind {
+    /// Uncompressed binary BVH: 52-byte inner nodes, 4-byte leaves.
+    Bvh,
+    /// Dual-split tree with the BVH's partitioning (identical conversion).
+    Dst,
+    /// Dual-split tree, similar conversion (carving may be deferred).
+    DstSimilar,
+    /// Bounding interval hierarchy with clip nodes.
+    Bih,
+    /// H-tree (kd-splits and bounding nodes).
+    Htree,
+    /// Compact BVH (shared planes, 32-byte nodes).
+    Cbvh,
+    /// Brute force: every triangle (the oracle).
+    Brute,
+}
+
+/// Every traversal raytree names (for `bvh`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, clap::ValueEnum, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum TraversalKind {
+    /// Stack of node references, nearest child first.
+    Stack,
+    /// Stackless, implicit heap layout (Barringer and Akenine-Möller, Alg. 2).
+    ImplicitA,
+    /// Stackless, implicit layout, one combined index (Alg. 3).
+    ImplicitB,
+    /// Stackless over parent links (Alg. 4).
+    Sparse,
+    /// Parent links, child order by ray direction (Hapala et al. 2011).
+    Hapala,
+    /// Restart trail, no short stack (Laine 2010).
+    #[value(name = "laine-0")]
+    #[serde(rename = "laine-0")]
+    Laine0,
+    /// Restart trail, short stack of 1.
+    #[value(name = "laine-1")]
+    #[serde(rename = "laine-1")]
+    Laine1,
+    /// Restart trail, short stack of 2.
+    #[value(name = "laine-2")]
+    #[serde(rename = "laine-2")]
+    Laine2,
+    /// Restart trail, short stack of 4.
+    #[value(name = "laine-4")]
+    #[serde(rename = "laine-4")]
+    Laine4,
+    /// Restart trail, short stack of 8.
+    #[value(name = "laine-8")]
+    #[serde(rename = "laine-8")]
+    Laine8,
+}
+
+impl StructureKind {
+    pub fn name(self) -> &'static str {
+        use StructureKind::*;
+        match self {
+            Bvh => "bvh",
+            Dst => "dst",
+            DstSimilar => "dst-similar",
+            Bih => "bih",
+            Htree => "htree",
+            Cbvh => "cbvh",
+            Brute => "brute",
+        }
+    }
+
+    /// Whether this build of raytree has the structure.
+    pub fn is_available(self) -> bool {
+        matches!(self, StructureKind::Bvh | StructureKind::Brute)
+    }
+
+    pub fn all() -> &'static [StructureKind] {
+        <Self as clap::ValueEnum>::value_variants()
+    }
+}
+
+impl TraversalKind {
+    pub fn name(self) -> &'static str {
+        use TraversalKind::*;
+        match self {
+            Stack => "stack",
+            ImplicitA => "implicit-a",
+            ImplicitB => "implicit-b",
+            Sparse => "sparse",
+            Hapala => "hapala",
+            Laine0 => "laine-0",
+            Laine1 => "laine-1",
+            Laine2 => "laine-2",
+            Laine4 => "laine-4",
+            Laine8 => "laine-8",
+        }
+    }
+
+    pub fn is_available(self) -> bool {
+        matches!(self, TraversalKind::Stack)
+    }
+
+    pub fn all() -> &'static [TraversalKind] {
+        <Self as clap::ValueEnum>::value_variants()
+    }
+}
+
+/// Whether `structure` with `traversal` can be built, with the reason if
+/// not: a name not implemented yet, or a traversal for a structure that has
+/// its own.
+pub fn check(structure: StructureKind, traversal: TraversalKind) -> Result<()> {
+    if !structure.is_available() {
+        return Err(Error::Invalid(format!(
+            "structure '{}' is not implemented yet; available: {}",
+            structure.name(),
+            available(StructureKind::all(), |s| s.is_available(), |s| s.name())
+        )));
+    }
+    if structure != StructureKind::Bvh && traversal != TraversalKind::Stack {
+        return Err(Error::Invalid(format!(
+            "traversal '{}' applies to the 'bvh' structure only; '{}' has its own",
+            traversal.name(),
+            structure.name()
+        )));
+    }
+    if !traversal.is_available() {
+        return Err(Error::Invalid(format!(
+            "traversal '{}' is not implemented yet; available: {}",
+            traversal.name(),
+            available(TraversalKind::all(), |t| t.is_available(), |t| t.name())
+        )));
+    }
+    Ok(())
+}
+
+/// A structure, built and ready to trace.
+pub enum Built {
+    Bvh(BinaryBvh),
+    Brute(BruteForce),
+}
+
+/// What a structure reports about itself.
+#[derive(Clone, Debug, Serialize)]
+pub struct StructureInfo {
+    pub structure: StructureKind,
+    pub traversal: Option<TraversalKind>,
+    pub bytes: usize,
+    pub node_bytes: usize,
+    pub index_bytes: usize,
+    pub inner_nodes: usize,
+    pub leaves: usize,
+    /// Time to derive it from the canonical BVH.
+    pub conversion_seconds: f64,
+}
+
+/// A computation over any structure: [`Built::with`] calls `run` with the
+/// concrete type, so that the trace loop inside is monomorphized.
+pub trait WithAccel {
+    type Output;
+    fn run<A: Accel>(self, accel: &A) -> Self::Output;
+}
+
+impl Built {
+    /// Derives `structure` (traversed by `traversal`) from `bvh`.
+    pub fn new(
+        structure: StructureKind,
+        traversal: TraversalKind,
+        bvh: &Bvh,
+        triangles: Arc<[Triangle]>,
+    ) -> Result<(Built, StructureInfo)> {
+        check(structure, traversal)?;
+        let start = Instant::now();
+        let (built, mut info) = match structure {
+            StructureKind::Bvh => {
+                let b = BinaryBvh::from_bvh(bvh, triangles)?;
+                let info = StructureInfo {
+                    structure,
+                    traversal: Some(traversal),
+                    bytes: b.bytes(),
+                    node_bytes: b.node_bytes(),
+                    index_bytes: b.index_bytes(),
+                    inner_nodes: b.inner_nodes(),
+                    leaves: b.leaves(),
+                    conversion_seconds: 0.0,
+                };
+                (Built::Bvh(b), info)
+            }
+            StructureKind::Brute => {
+                let b = BruteForce::new(triangles);
+                let info = StructureInfo {
+                    structure,
+                    traversal: None,
+                    bytes: b.bytes(),
+                    node_bytes: 0,
+                    index_bytes: b.bytes(),
+                    inner_nodes: 0,
+                    leaves: 1,
+                    conversion_seconds: 0.0,
+                };
+                (Built::Brute(b), info)
+            }
+            _ => unreachable!("availability checked above"),
+        };
+        info.conversion_seconds = start.elapsed().as_secs_f64();
+        Ok((built, info))
+    }
+
+    pub fn with<W: WithAccel>(&self, w: W) -> W::Output {
+        match self {
+            Built::Bvh(a) => w.run(a),
+            Built::Brute(a) => w.run(a),
+        }
+    }
+}
+
+fn available<T: Copy>(
+    all: &[T],
+    ok: impl Fn(T) -> bool,
+    name: impl Fn(T) -> &'static str,
+) -> String {
+    all.iter()
+        .copied()
+        .filter(|&t| ok(t))
+        .map(name)
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_are_the_documented_ones() {
+        let s: Vec<_> = StructureKind::all().iter().map(|s| s.name()).collect();
+        assert_eq!(
+            s,
+            ["bvh", "dst", "dst-similar", "bih", "htree", "cbvh", "brute"]
+        );
+        let t: Vec<_> = TraversalKind::all().iter().map(|t| t.name()).collect();
+        assert_eq!(
+            t,
+            [
+                "stack",
+                "implicit-a",
+                "implicit-b",
+                "sparse",
+                "hapala",
+                "laine-0",
+                "laine-1",
+                "laine-2",
+                "laine-4",
+                "laine-8"
+            ]
+        );
+        assert_eq!(
+            serde_json::to_string(&TraversalKind::Laine4).unwrap(),
+            "\"laine-4\""
+        );
+        assert_eq!(
+            serde_json::to_string(&StructureKind::DstSimilar).unwrap(),
+            "\"dst-similar\""
+        );
+        // The clap names agree with name().
+        for s in StructureKind::all() {
+            assert_eq!(
+                clap::ValueEnum::to_possible_value(s).unwrap().get_name(),
+                s.name()
+            );
+        }
+        for t in TraversalKind::all() {
+            assert_eq!(
+                clap::ValueEnum::to_possible_value(t).unwrap().get_name(),
+                t.name()
+            );
+        }
+    }
+}

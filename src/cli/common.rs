@@ -1,0 +1,124 @@
+//! Options and steps shared by the subcommands.
+
+use clap::Args;
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use raytree::accel::{Built, StructureInfo, StructureKind, TraversalKind};
+use raytree::bvh::{BuildOptions, BuildStats, Builder, Bvh};
+use raytree::error::Result;
+use raytree::scene::Scene;
+use serde::Serialize;
+use std::path::Path;
+
+/// Which scene, and how to build the canonical BVH.
+#[derive(Args, Clone, Debug)]
+pub struct SceneArgs {
+    /// Scene: a built-in name with an optional size in triangles
+    /// (chess, chess:200k, hairball, hairball:3M) or an OBJ/PLY file.
+    #[arg(long, short = 's', default_value = "chess")]
+    pub scene: String,
+    /// BVH builder: binned SAH, or SAH for the top 8 levels and median
+    /// splits below (the stackless paper's).
+    #[arg(long, value_enum, default_value_t = BuilderArg::Sah)]
+    pub builder: BuilderArg,
+    /// Most triangles in a BVH leaf (1 to 255).
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u16).range(1..=255))]
+    pub max_leaf: u16,
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+pub enum BuilderArg {
+    /// Binned SAH at every level.
+    Sah,
+    /// SAH for the top 8 levels, median splits below.
+    Hybrid,
+}
+
+/// Which structure, and which traversal for `bvh`.
+#[derive(Args, Clone, Debug)]
+pub struct StructureArgs {
+    /// Acceleration structure.
+    #[arg(long, short = 'a', value_enum, default_value_t = StructureKind::Bvh)]
+    pub accel: StructureKind,
+    /// Traversal algorithm (for --accel bvh).
+    #[arg(long, short = 't', value_enum, default_value_t = TraversalKind::Stack)]
+    pub traversal: TraversalKind,
+}
+
+#[derive(Serialize)]
+pub struct SceneReport {
+    pub scene: String,
+    pub triangles: usize,
+    pub vertices: usize,
+    pub bounds_min: [f32; 3],
+    pub bounds_max: [f32; 3],
+    pub load_seconds: f64,
+}
+
+pub fn load_scene(args: &SceneArgs) -> Result<(Scene, SceneReport)> {
+    let start = std::time::Instant::now();
+    let scene = Scene::from_spec(&args.scene)?;
+    let b = scene.mesh.bounds();
+    let report = SceneReport {
+        scene: scene.name.clone(),
+        triangles: scene.mesh.triangle_count(),
+        vertices: scene.mesh.positions.len(),
+        bounds_min: b.min.to_array(),
+        bounds_max: b.max.to_array(),
+        load_seconds: start.elapsed().as_secs_f64(),
+    };
+    Ok((scene, report))
+}
+
+pub fn build_bvh(scene: &Scene, args: &SceneArgs) -> (Bvh, BuildStats) {
+    let builder = match args.builder {
+        BuilderArg::Sah => Builder::Sah,
+        BuilderArg::Hybrid => Builder::Hybrid,
+    };
+    let opts = BuildOptions::new(builder).with_max_leaf_size(args.max_leaf as usize);
+    let bvh = Bvh::build(&scene.triangles, &opts);
+    let stats = bvh.stats.clone();
+    (bvh, stats)
+}
+
+/// Checks the names before any work is done.
+pub fn check_structure(s: &StructureArgs) -> Result<()> {
+    raytree::accel::check(s.accel, s.traversal)
+}
+
+pub fn build_structure(
+    scene: &Scene,
+    bvh: &Bvh,
+    s: &StructureArgs,
+) -> Result<(Built, StructureInfo)> {
+    Built::new(s.accel, s.traversal, bvh, scene.triangles.clone())
+}
+
+/// A progress bar on stderr, drawn only when stderr is a terminal.
+pub fn progress(len: u64, what: &str, quiet: bool) -> ProgressBar {
+    let target = if quiet {
+        ProgressDrawTarget::hidden()
+    } else {
+        ProgressDrawTarget::stderr()
+    };
+    let bar = ProgressBar::with_draw_target(Some(len), target);
+    bar.set_style(
+        ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} {elapsed_precise} eta {eta}")
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
+    bar.set_message(what.to_owned());
+    bar
+}
+
+/// Writes `value` as pretty JSON to `path`, atomically.
+pub fn write_json(path: &Path, value: &impl Serialize) -> Result<()> {
+    raytree::render::write_atomically(path, |w| {
+        serde_json::to_writer_pretty(&mut *w, value).map_err(std::io::Error::other)?;
+        use std::io::Write;
+        writeln!(w)
+    })
+}
+
+pub fn mib(bytes: usize) -> String {
+    format!("{:.2} MiB", bytes as f64 / (1024.0 * 1024.0))
+}

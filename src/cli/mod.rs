@@ -1,0 +1,46 @@
+//! Command-line front end. Failures print one line on stderr and exit 1;
+//! usage errors exit 2 (clap's convention).
+
+mod common;
+mod info;
+mod render;
+mod trace;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+/// Ray-tracing acceleration structures: build, trace, compare and measure
+/// them on real scenes.
+#[derive(Parser)]
+#[command(name = "raytree", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render a scene with ambient occlusion or path tracing to PNG (or PPM).
+    Render(render::RenderArgs),
+    /// Trace a file of rays through a structure and write the hits.
+    Trace(trace::TraceArgs),
+    /// Describe a scene, its BVH and every available structure.
+    Info(info::InfoArgs),
+}
+
+pub fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Render(a) => render::run(a),
+        Command::Trace(a) => trace::run(a),
+        Command::Info(a) => info::run(a),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            // One line: the cause, with file and line or limit where known.
+            eprintln!("raytree: error: {}", e.to_string().replace('\n', " "));
+            ExitCode::FAILURE
+        }
+    }
+}

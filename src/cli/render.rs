@@ -1,0 +1,273 @@
+//! `raytree render`.
+
+use super::common::{self, SceneArgs, SceneReport, StructureArgs};
+use clap::{Args, ValueEnum};
+use raytree::accel::{Accel, StructureInfo, WithAccel};
+use raytree::bvh::BuildStats;
+use raytree::error::{Error, Result};
+use raytree::render::{self, AoSettings, Integrator, PathSettings, Rendered};
+use raytree::scene::Scene;
+use raytree::stats::{Counters, PerRay};
+use serde::Serialize;
+use std::path::PathBuf;
+
+#[derive(Args, Debug)]
+pub struct RenderArgs {
+    #[command(flatten)]
+    scene: SceneArgs,
+    #[command(flatten)]
+    structure: StructureArgs,
+    /// Integrator: ambient occlusion (any-hit AO rays) or diffuse path tracing.
+    #[arg(long, short = 'i', value_enum, default_value_t = IntegratorArg::Ao)]
+    integrator: IntegratorArg,
+    /// Use the papers' settings: for ao, 16 eye and 256 AO rays per pixel at
+    /// 800×300 (chess) or 512×512; for path, 1024×1024 at 1 sample per pixel.
+    #[arg(long)]
+    paper: bool,
+    /// Image width in pixels [default: ao 400 (chess) or 256, path 512;
+    /// with --paper as above].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    width: Option<u32>,
+    /// Image height in pixels [default: ao 150 (chess) or 256, path 512;
+    /// with --paper as above].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    height: Option<u32>,
+    /// AO: jittered eye rays per pixel [default: 4; --paper: 16].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=4096))]
+    eye_rays: Option<u32>,
+    /// AO: occlusion rays per eye-ray hit [default: 16; --paper: 256].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=65536))]
+    ao_rays: Option<u32>,
+    /// AO: length of the occlusion rays in scene units
+    /// [default: 0.045 × the scene's diagonal, 32 on the chess board].
+    #[arg(long)]
+    ao_radius: Option<f32>,
+    /// Path: samples per pixel.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=65536))]
+    samples: u32,
+    /// Path: diffuse bounces after the eye ray (no Russian roulette).
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(0..=64))]
+    bounces: u32,
+    /// Output image: .png (8-bit grey, sRGB) or .ppm (binary P6).
+    #[arg(long, short = 'o', default_value = "raytree.png")]
+    out: PathBuf,
+    /// Worker threads [default: all cores].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    threads: Option<u32>,
+    /// No progress bar.
+    #[arg(long, short = 'q')]
+    quiet: bool,
+    /// Also write the report as JSON to this file.
+    #[arg(long)]
+    json: Option<PathBuf>,
+    /// Do not count nodes, plane and triangle tests (the render time then
+    /// excludes their small cost; rays are still counted).
+    #[arg(long)]
+    no_stats: bool,
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum IntegratorArg {
+    /// Ambient occlusion: eye rays, then any-hit occlusion rays at each hit.
+    Ao,
+    /// Diffuse path tracing: closest-hit rays, up to --bounces bounces.
+    Path,
+}
+
+#[derive(Serialize)]
+struct RenderReport {
+    #[serde(flatten)]
+    scene: SceneReport,
+    bvh: BuildStats,
+    structure: StructureInfo,
+    integrator: IntegratorArg,
+    ao: Option<AoSettings>,
+    path: Option<PathSettings>,
+    width: usize,
+    height: usize,
+    threads: usize,
+    render_seconds: f64,
+    counted: bool,
+    rays: u64,
+    mrays_per_second: f64,
+    counters: Counters,
+    per_ray: PerRay,
+    image: PathBuf,
+}
+
+struct RenderWith<'a> {
+    scene: &'a Scene,
+    integrator: &'a Integrator,
+    width: usize,
+    height: usize,
+    count: bool,
+    quiet: bool,
+}
+
+impl WithAccel for RenderWith<'_> {
+    type Output = Rendered;
+    fn run<A: Accel>(self, accel: &A) -> Rendered {
+        let tiles = render::tile_count(self.width, self.height) as u64;
+        let bar = common::progress(tiles, "render", self.quiet);
+        let out = render::render(
+            accel,
+            self.scene,
+            self.integrator,
+            self.width,
+            self.height,
+            self.count,
+            &|n| bar.inc(n as u64),
+        );
+        bar.finish_and_clear();
+        out
+    }
+}
+
+pub fn run(args: RenderArgs) -> Result<()> {
+    common::check_structure(&args.structure)?;
+    if let Some(r) = args.ao_radius {
+        if !(r.is_finite() && r > 0.0) {
+            return Err(Error::Invalid(format!(
+                "--ao-radius {r}: must be a positive number"
+            )));
+        }
+    }
+    match args.threads {
+        Some(n) => rayon::ThreadPoolBuilder::new()
+            .num_threads(n as usize)
+            .build()
+            .map_err(|e| Error::Invalid(format!("cannot start {n} threads: {e}")))?
+            .install(|| run_in_pool(&args)),
+        None => run_in_pool(&args),
+    }
+}
+
+fn run_in_pool(args: &RenderArgs) -> Result<()> {
+    let (scene, scene_report) = common::load_scene(&args.scene)?;
+    let (bvh, bvh_stats) = common::build_bvh(&scene, &args.scene);
+    let (built, info) = common::build_structure(&scene, &bvh, &args.structure)?;
+    drop(bvh);
+
+    let chess = scene.name.starts_with("chess");
+    let (w, h) = match (args.integrator, args.paper, chess) {
+        (IntegratorArg::Ao, false, true) => (400, 150),
+        (IntegratorArg::Ao, false, false) => (256, 256),
+        (IntegratorArg::Ao, true, true) => (800, 300),
+        (IntegratorArg::Ao, true, false) => (512, 512),
+        (IntegratorArg::Path, false, _) => (512, 512),
+        (IntegratorArg::Path, true, _) => (1024, 1024),
+    };
+    let width = args.width.map_or(w, |v| v as usize);
+    let height = args.height.map_or(h, |v| v as usize);
+    let diagonal = scene.mesh.bounds().extent().length();
+    let (ao, path) = match args.integrator {
+        IntegratorArg::Ao => {
+            let radius = args
+                .ao_radius
+                .unwrap_or(AoSettings::RADIUS_FRACTION * diagonal);
+            let mut s = AoSettings::paper(radius);
+            if !args.paper {
+                (s.eye_rays, s.ao_rays) = (4, 16);
+            }
+            s.eye_rays = args.eye_rays.unwrap_or(s.eye_rays);
+            s.ao_rays = args.ao_rays.unwrap_or(s.ao_rays);
+            (Some(s), None)
+        }
+        IntegratorArg::Path => {
+            let s = PathSettings {
+                samples: args.samples,
+                bounces: args.bounces,
+                ..PathSettings::default()
+            };
+            (None, Some(s))
+        }
+    };
+    let integrator = match (&ao, &path) {
+        (Some(s), _) => Integrator::Ao(s.clone()),
+        (_, Some(s)) => Integrator::Path(s.clone()),
+        _ => unreachable!(),
+    };
+    let rendered = built.with(RenderWith {
+        scene: &scene,
+        integrator: &integrator,
+        width,
+        height,
+        count: !args.no_stats,
+        quiet: args.quiet,
+    });
+    rendered.image.save(&args.out)?;
+
+    let c = rendered.counters;
+    let report = RenderReport {
+        scene: scene_report,
+        bvh: bvh_stats,
+        structure: info,
+        integrator: args.integrator,
+        ao,
+        path,
+        width,
+        height,
+        threads: rayon::current_num_threads(),
+        render_seconds: rendered.seconds,
+        counted: !args.no_stats,
+        rays: c.rays,
+        mrays_per_second: c.rays as f64 / rendered.seconds / 1e6,
+        counters: c,
+        per_ray: c.per_ray(),
+        image: args.out.clone(),
+    };
+    print_report(&report);
+    if let Some(p) = &args.json {
+        common::write_json(p, &report)?;
+    }
+    Ok(())
+}
+
+fn print_report(r: &RenderReport) {
+    let b = &r.bvh;
+    let s = &r.structure;
+    println!(
+        "scene      {} ({} triangles)",
+        r.scene.scene, r.scene.triangles
+    );
+    println!(
+        "bvh        {} builder, {} nodes, depth {}, SAH cost {:.2}, built in {:.3} s",
+        b.builder, b.nodes, b.depth, b.sah_cost, b.build_seconds
+    );
+    println!(
+        "structure  {}{}: {} (nodes {}, index {}), converted in {:.3} s",
+        s.structure.name(),
+        s.traversal
+            .map(|t| format!("/{}", t.name()))
+            .unwrap_or_default(),
+        common::mib(s.bytes),
+        common::mib(s.node_bytes),
+        common::mib(s.index_bytes),
+        s.conversion_seconds
+    );
+    let what = match (&r.ao, &r.path) {
+        (Some(a), _) => format!(
+            "ao, {} eye + {} AO rays per pixel, radius {}",
+            a.eye_rays, a.ao_rays, a.radius
+        ),
+        (_, Some(p)) => format!("path, {} spp, {} bounces", p.samples, p.bounces),
+        _ => String::new(),
+    };
+    println!(
+        "render     {}×{} {what}: {:.3} s on {} threads{}",
+        r.width,
+        r.height,
+        r.render_seconds,
+        r.threads,
+        if r.counted { " (counting)" } else { "" }
+    );
+    println!("rays       {} ({:.2} Mrays/s)", r.rays, r.mrays_per_second);
+    if r.counted {
+        println!(
+            "per ray    {:.2} nodes, {:.2} plane tests, {:.2} triangle tests",
+            r.per_ray.nodes, r.per_ray.planes, r.per_ray.triangles
+        );
+    }
+    println!("wrote      {}", r.image.display());
+}

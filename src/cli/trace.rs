@@ -1,0 +1,197 @@
+//! `raytree trace`: rays from a file, hits to a file.
+
+use super::common::{self, SceneArgs, SceneReport, StructureArgs};
+use clap::{Args, ValueEnum};
+use rayon::prelude::*;
+use raytree::accel::{Accel, StructureInfo, WithAccel};
+use raytree::bvh::BuildStats;
+use raytree::error::Result;
+use raytree::geometry::{Hit, Ray};
+use raytree::rayfile;
+use raytree::stats::{Counters, NoStats, PerRay};
+use serde::Serialize;
+use std::path::PathBuf;
+use std::time::Instant;
+
+#[derive(Args, Debug)]
+pub struct TraceArgs {
+    #[command(flatten)]
+    scene: SceneArgs,
+    #[command(flatten)]
+    structure: StructureArgs,
+    /// Ray file: 32 bytes per ray, little-endian f32 origin xyz, direction
+    /// xyz (any length), tmin, tmax; no header.
+    #[arg(long)]
+    rays: PathBuf,
+    /// Hit file: 16 bytes per ray, f32 t (+inf on a miss), u32 triangle
+    /// (0xFFFFFFFF on a miss), f32 u, v; or CSV with --format csv.
+    #[arg(long, short = 'o')]
+    out: PathBuf,
+    /// Any hit instead of the closest: t is some hit's distance in [tmin, tmax].
+    #[arg(long)]
+    any_hit: bool,
+    /// Count nodes, plane and triangle tests per ray and print them
+    /// (traced in a second pass, so that the timing excludes the counting).
+    #[arg(long)]
+    stats: bool,
+    /// Hit file format.
+    #[arg(long, value_enum, default_value_t = Format::Bin)]
+    format: Format,
+    /// Worker threads [default: all cores].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    threads: Option<u32>,
+    /// Also write a JSON report (times, Mrays/s, counters) to this file.
+    #[arg(long)]
+    json: Option<PathBuf>,
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+enum Format {
+    /// 16 bytes per ray.
+    Bin,
+    /// Text: ray,t,triangle,u,v.
+    Csv,
+}
+
+#[derive(Serialize)]
+struct TraceReport {
+    #[serde(flatten)]
+    scene: SceneReport,
+    bvh: BuildStats,
+    structure: StructureInfo,
+    any_hit: bool,
+    rays: usize,
+    hits: usize,
+    threads: usize,
+    /// Tracing only: no file input or output.
+    trace_seconds: f64,
+    mrays_per_second: f64,
+    counters: Option<Counters>,
+    per_ray: Option<PerRay>,
+}
+
+struct TraceWith<'a> {
+    rays: &'a [Ray],
+    any: bool,
+}
+
+impl WithAccel for TraceWith<'_> {
+    type Output = (Vec<Option<Hit>>, f64);
+    fn run<A: Accel>(self, a: &A) -> Self::Output {
+        let start = Instant::now();
+        let hits = self
+            .rays
+            .par_iter()
+            .with_min_len(256)
+            .map(|r| {
+                if self.any {
+                    a.any_hit(r, &mut NoStats)
+                } else {
+                    a.closest_hit(r, &mut NoStats)
+                }
+            })
+            .collect();
+        (hits, start.elapsed().as_secs_f64())
+    }
+}
+
+struct CountWith<'a> {
+    rays: &'a [Ray],
+    any: bool,
+}
+
+impl WithAccel for CountWith<'_> {
+    type Output = Counters;
+    fn run<A: Accel>(self, a: &A) -> Counters {
+        self.rays
+            .par_iter()
+            .with_min_len(256)
+            .fold(Counters::default, |mut c, r| {
+                c.rays += 1;
+                if self.any {
+                    a.any_hit(r, &mut c);
+                } else {
+                    a.closest_hit(r, &mut c);
+                }
+                c
+            })
+            .reduce(Counters::default, |mut a, b| {
+                a += b;
+                a
+            })
+    }
+}
+
+pub fn run(args: TraceArgs) -> Result<()> {
+    common::check_structure(&args.structure)?;
+    let rays = rayfile::read_rays(&args.rays)?;
+    let go = || -> Result<()> {
+        let (scene, scene_report) = common::load_scene(&args.scene)?;
+        let (bvh, bvh_stats) = common::build_bvh(&scene, &args.scene);
+        let (built, info) = common::build_structure(&scene, &bvh, &args.structure)?;
+        drop(bvh);
+        let (hits, seconds) = built.with(TraceWith {
+            rays: &rays,
+            any: args.any_hit,
+        });
+        match args.format {
+            Format::Bin => {
+                let bytes = rayfile::encode_hits(&hits);
+                raytree::render::write_atomically(&args.out, |w| {
+                    use std::io::Write;
+                    w.write_all(&bytes)
+                })?
+            }
+            Format::Csv => {
+                raytree::render::write_atomically(&args.out, |w| rayfile::write_hits_csv(w, &hits))?
+            }
+        }
+        let counters = args.stats.then(|| {
+            built.with(CountWith {
+                rays: &rays,
+                any: args.any_hit,
+            })
+        });
+        let report = TraceReport {
+            scene: scene_report,
+            bvh: bvh_stats,
+            structure: info,
+            any_hit: args.any_hit,
+            rays: rays.len(),
+            hits: hits.iter().filter(|h| h.is_some()).count(),
+            threads: rayon::current_num_threads(),
+            trace_seconds: seconds,
+            mrays_per_second: rays.len() as f64 / seconds.max(1e-12) / 1e6,
+            counters,
+            per_ray: counters.map(|c| c.per_ray()),
+        };
+        println!(
+            "traced     {} rays ({} hits) through {} in {:.3} s: {:.2} Mrays/s on {} threads",
+            report.rays,
+            report.hits,
+            report.structure.structure.name(),
+            report.trace_seconds,
+            report.mrays_per_second,
+            report.threads
+        );
+        if let Some(p) = report.per_ray {
+            println!(
+                "per ray    {:.2} nodes, {:.2} plane tests, {:.2} triangle tests",
+                p.nodes, p.planes, p.triangles
+            );
+        }
+        println!("wrote      {}", args.out.display());
+        if let Some(p) = &args.json {
+            common::write_json(p, &report)?;
+        }
+        Ok(())
+    };
+    match args.threads {
+        Some(n) => rayon::ThreadPoolBuilder::new()
+            .num_threads(n as usize)
+            .build()
+            .map_err(|e| raytree::error::Error::Invalid(format!("cannot start {n} threads: {e}")))?
+            .install(go),
+        None => go(),
+    }
+}

@@ -1,0 +1,71 @@
+//! Ambient occlusion, as the stackless paper's ray tracer renders it: N
+//! jittered eye rays per pixel and, at each eye-ray hit, M cosine-weighted
+//! occlusion rays of a fixed length, traced as any-hit queries.
+
+use super::sampling::{cosine_hemisphere, eye_ray, facing_normal, offset_origin};
+use super::{Ctx, RaySink};
+use crate::accel::Accel;
+use crate::geometry::Ray;
+use crate::rng::Pcg32;
+
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct AoSettings {
+    pub eye_rays: u32,
+    pub ao_rays: u32,
+    /// Length of the occlusion rays, in scene units.
+    pub radius: f32,
+    /// Value of a pixel sample whose eye ray misses the scene.
+    pub background: f32,
+}
+
+impl AoSettings {
+    /// The stackless paper's settings: 16 eye and 256 AO rays per pixel.
+    pub fn paper(radius: f32) -> Self {
+        AoSettings {
+            eye_rays: 16,
+            ao_rays: 256,
+            radius,
+            background: 1.0,
+        }
+    }
+
+    /// The default radius: this fraction of the scene's diagonal (32 units
+    /// on the paper's 500-unit chess board).
+    pub const RADIUS_FRACTION: f32 = 0.045;
+}
+
+pub(super) fn pixel<A: Accel, S: RaySink>(
+    accel: &A,
+    ctx: &Ctx,
+    s: &AoSettings,
+    x: usize,
+    y: usize,
+    pixel: u64,
+    stats: &mut S,
+) -> f32 {
+    let mut sum = 0.0;
+    for sample in 0..s.eye_rays {
+        let mut rng = Pcg32::new(pixel, sample as u64);
+        let ray = eye_ray(ctx.scene, x, y, ctx.width, ctx.height, &mut rng);
+        stats.ray();
+        let Some(hit) = accel.closest_hit(&ray, stats) else {
+            sum += s.background;
+            continue;
+        };
+        let n = facing_normal(ctx.scene, &ray, &hit);
+        let origin = offset_origin(ray.at(hit.t), n);
+        let mut open = 0u32;
+        for _ in 0..s.ao_rays {
+            let d = cosine_hemisphere(n, &mut rng);
+            stats.ray();
+            if accel
+                .any_hit(&Ray::new(origin, d, 0.0, s.radius), stats)
+                .is_none()
+            {
+                open += 1;
+            }
+        }
+        sum += open as f32 / s.ao_rays.max(1) as f32;
+    }
+    sum / s.eye_rays.max(1) as f32
+}

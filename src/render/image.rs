@@ -1,0 +1,141 @@
+//! A grey-scale image of linear values, written as 8-bit sRGB PNG or PPM.
+//! Files are written under a temporary name and renamed, so an error or an
+//! interrupt never leaves a partial file.
+
+use crate::error::{Error, Result};
+use std::io::Write;
+use std::path::Path;
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Image {
+    pub width: usize,
+    pub height: usize,
+    /// Linear values, row-major, top row first.
+    pub pixels: Vec<f32>,
+}
+
+impl Image {
+    pub fn new(width: usize, height: usize) -> Self {
+        Image {
+            width,
+            height,
+            pixels: vec![0.0; width * height],
+        }
+    }
+
+    pub fn set(&mut self, x: usize, y: usize, v: f32) {
+        self.pixels[y * self.width + x] = v;
+    }
+
+    pub fn get(&self, x: usize, y: usize) -> f32 {
+        self.pixels[y * self.width + x]
+    }
+
+    /// 8-bit sRGB values, clamped to [0, 1] first.
+    pub fn to_srgb8(&self) -> Vec<u8> {
+        self.pixels
+            .iter()
+            .map(|&v| {
+                let v = if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) };
+                let s = if v <= 0.003_130_8 {
+                    12.92 * v
+                } else {
+                    1.055 * v.powf(1.0 / 2.4) - 0.055
+                };
+                (s * 255.0 + 0.5) as u8
+            })
+            .collect()
+    }
+
+    /// Writes a PNG (grey) or, for a `.ppm` path, a binary PPM (P6, RGB).
+    pub fn save(&self, path: &Path) -> Result<()> {
+        let grey = self.to_srgb8();
+        let ppm = path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("ppm"));
+        write_atomically(path, |w| {
+            if ppm {
+                write!(w, "P6\n{} {}\n255\n", self.width, self.height)?;
+                let rgb: Vec<u8> = grey.iter().flat_map(|&g| [g, g, g]).collect();
+                w.write_all(&rgb)
+            } else {
+                image::GrayImage::from_raw(self.width as u32, self.height as u32, grey)
+                    .expect("buffer matches size")
+                    .write_to(w, image::ImageFormat::Png)
+                    .map_err(std::io::Error::other)
+            }
+        })
+    }
+}
+
+/// Runs `f` on a temporary file beside `path`, then renames it to `path`.
+/// On failure the temporary file is removed and `path` is untouched.
+pub fn write_atomically(
+    path: &Path,
+    f: impl FnOnce(&mut std::io::BufWriter<std::fs::File>) -> std::io::Result<()>,
+) -> Result<()> {
+    let io = |source| Error::Io {
+        path: path.into(),
+        source,
+    };
+    let dir = path
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let name = path.file_name().ok_or_else(|| {
+        io(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "not a file name",
+        ))
+    })?;
+    let tmp = dir.join(format!(
+        ".{}.tmp{}",
+        name.to_string_lossy(),
+        std::process::id()
+    ));
+    let result = (|| {
+        let mut w = std::io::BufWriter::new(std::fs::File::create(&tmp)?);
+        f(&mut w)?;
+        w.into_inner().map_err(|e| e.into_error())?.sync_all()?;
+        std::fs::rename(&tmp, path)
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result.map_err(io)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn srgb_encoding_endpoints() {
+        let mut im = Image::new(3, 1);
+        im.set(1, 0, 1.0);
+        im.set(2, 0, 5.0);
+        assert_eq!(im.to_srgb8(), vec![0, 255, 255]);
+    }
+
+    #[test]
+    fn failed_write_leaves_nothing() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("x.png");
+        let r = write_atomically(&path, |_| Err(std::io::Error::other("boom")));
+        assert!(r.is_err());
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+    }
+
+    #[test]
+    fn ppm_and_png_are_written() {
+        let dir = tempfile::tempdir().unwrap();
+        let im = Image::new(4, 2);
+        im.save(&dir.path().join("a.ppm")).unwrap();
+        im.save(&dir.path().join("a.png")).unwrap();
+        let ppm = std::fs::read(dir.path().join("a.ppm")).unwrap();
+        assert!(ppm.starts_with(b"P6\n4 2\n255\n"));
+        assert_eq!(ppm.len(), 11 + 4 * 2 * 3);
+        let png = image::open(dir.path().join("a.png")).unwrap();
+        assert_eq!((png.width(), png.height()), (4, 2));
+    }
+}
