@@ -27,7 +27,7 @@ pub fn parse_rays(bytes: &[u8], path: &Path) -> Result<Vec<Ray>> {
         line: None,
         message,
     };
-    if bytes.len() % RAY_BYTES != 0 {
+    if !bytes.len().is_multiple_of(RAY_BYTES) {
         return Err(err(format!(
             "size {} bytes is not a multiple of {RAY_BYTES} (one ray is origin xyz, direction xyz, tmin, tmax as little-endian f32)",
             bytes.len()
@@ -97,7 +97,7 @@ pub fn encode_hits(hits: &[Option<Hit>]) -> Vec<u8> {
 
 /// Decodes a binary hit file (the inverse of [`encode_hits`]).
 pub fn decode_hits(bytes: &[u8]) -> Option<Vec<Option<Hit>>> {
-    if bytes.len() % HIT_BYTES != 0 {
+    if !bytes.len().is_multiple_of(HIT_BYTES) {
         return None;
     }
     Some(
