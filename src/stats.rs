@@ -5,15 +5,30 @@ use serde::Serialize;
 use std::ops::AddAssign;
 
 /// Receives the work a traversal does.
+///
+/// A traversal counts into a local [`Tally`] (registers, not memory) and
+/// hands it over once per ray with [`Stats::add`]; only visit logs see each
+/// node as it is visited. With [`NoStats`] both vanish.
 pub trait Stats {
-    /// A node was visited: its children tested, or its triangles processed.
-    /// `id` gives the node's id in the canonical [`crate::bvh::Bvh`]; it is only
-    /// called by sinks that log, so layouts may look it up in a side table.
-    fn node(&mut self, id: impl FnOnce() -> u32);
-    /// `n` ray-plane tests (a box test counts 6).
-    fn planes(&mut self, n: u32);
-    /// `n` ray-triangle tests.
-    fn triangles(&mut self, n: u32);
+    /// Whether [`Stats::visit`] wants every visited node.
+    const LOGS: bool = false;
+    /// Node `id` of the canonical [`crate::bvh::Bvh`] was visited. Called
+    /// only when [`Stats::LOGS`] is set; layouts may look the id up in a
+    /// side table.
+    fn visit(&mut self, _id: u32) {}
+    /// The work of one ray.
+    fn add(&mut self, tally: Tally);
+}
+
+/// One ray's work, kept in locals by a traversal.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Tally {
+    /// Nodes visited: their children tested, or their triangles processed.
+    pub nodes: u32,
+    /// Ray-plane tests (a box test counts 6).
+    pub planes: u32,
+    /// Ray-triangle tests.
+    pub triangles: u32,
 }
 
 /// Counts nothing, costs nothing.
@@ -22,11 +37,7 @@ pub struct NoStats;
 
 impl Stats for NoStats {
     #[inline(always)]
-    fn node(&mut self, _: impl FnOnce() -> u32) {}
-    #[inline(always)]
-    fn planes(&mut self, _: u32) {}
-    #[inline(always)]
-    fn triangles(&mut self, _: u32) {}
+    fn add(&mut self, _: Tally) {}
 }
 
 /// Totals of nodes visited, plane tests and triangle tests (and rays, kept
@@ -41,16 +52,10 @@ pub struct Counters {
 
 impl Stats for Counters {
     #[inline(always)]
-    fn node(&mut self, _: impl FnOnce() -> u32) {
-        self.nodes += 1;
-    }
-    #[inline(always)]
-    fn planes(&mut self, n: u32) {
-        self.planes += n as u64;
-    }
-    #[inline(always)]
-    fn triangles(&mut self, n: u32) {
-        self.triangles += n as u64;
+    fn add(&mut self, t: Tally) {
+        self.nodes += t.nodes as u64;
+        self.planes += t.planes as u64;
+        self.triangles += t.triangles as u64;
     }
 }
 
@@ -91,15 +96,12 @@ pub struct VisitLog {
 }
 
 impl Stats for VisitLog {
-    fn node(&mut self, id: impl FnOnce() -> u32) {
-        self.counters.nodes += 1;
-        self.visits.push(id());
+    const LOGS: bool = true;
+    fn visit(&mut self, id: u32) {
+        self.visits.push(id);
     }
-    fn planes(&mut self, n: u32) {
-        self.counters.planes(n);
-    }
-    fn triangles(&mut self, n: u32) {
-        self.counters.triangles(n);
+    fn add(&mut self, t: Tally) {
+        self.counters.add(t);
     }
 }
 
@@ -110,9 +112,11 @@ mod tests {
     #[test]
     fn counters_add_and_average() {
         let mut c = Counters::default();
-        c.node(|| unreachable!("counters do not ask for ids"));
-        c.planes(12);
-        c.triangles(3);
+        c.add(Tally {
+            nodes: 1,
+            planes: 12,
+            triangles: 3,
+        });
         c.rays = 2;
         let mut total = Counters::default();
         total += c;
@@ -125,8 +129,12 @@ mod tests {
     #[test]
     fn log_records_ids_in_order() {
         let mut l = VisitLog::default();
-        l.node(|| 7);
-        l.node(|| 3);
+        l.visit(7);
+        l.visit(3);
+        l.add(Tally {
+            nodes: 2,
+            ..Default::default()
+        });
         assert_eq!(l.visits, vec![7, 3]);
         assert_eq!(l.counters.nodes, 2);
     }

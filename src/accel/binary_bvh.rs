@@ -3,8 +3,10 @@
 //! node is 52 bytes and a leaf only 4.
 //!
 //! Layout, in 32-bit words:
-//! - inner node (13 words): the left child's box `[min xyz, max xyz]`, the
-//!   right child's box, then a link word: bits 0–29 the word offset of the
+//! - inner node (13 words): both children's boxes, per axis
+//!   `[lo_left, lo_right, hi_left, hi_right]` for x, y, then z (so that one
+//!   4-wide vector op tests an axis of both boxes), then a link word:
+//!   bits 0–29 the word offset of the
 //!   left child, bit 31 set if the left child is a leaf, bit 30 if the right
 //!   one is. The right child follows the left directly (siblings adjacent),
 //!   at `offset + 1` or `offset + 13`.
@@ -127,11 +129,12 @@ impl BinaryBvh {
             NodeKind::Inner { left, right, .. } => {
                 let l = self.place(bvh, left);
                 let r = self.place(bvh, right);
-                for (k, c) in [left, right].into_iter().enumerate() {
-                    let bounds = bvh.nodes[c as usize].bounds.to_array();
-                    for (j, v) in bounds.into_iter().enumerate() {
-                        self.words[at + 6 * k + j] = v.to_bits();
-                    }
+                let boxes = pair_boxes(
+                    &bvh.nodes[left as usize].bounds,
+                    &bvh.nodes[right as usize].bounds,
+                );
+                for (j, v) in boxes.into_iter().enumerate() {
+                    self.words[at + j] = v.to_bits();
                 }
                 let mut link = l & !LAST;
                 if l & LAST != 0 {
@@ -177,6 +180,16 @@ impl BinaryBvh {
     }
 }
 
+/// Two boxes in the per-axis order of an inner node and of
+/// [`crate::geometry::BoxRay::test_pair`].
+pub fn pair_boxes(l: &Aabb, r: &Aabb) -> [f32; 12] {
+    let (l, r) = (l.to_array(), r.to_array());
+    std::array::from_fn(|j| {
+        let (axis, k) = (j / 4, j % 4);
+        [l[axis], r[axis], l[axis + 3], r[axis + 3]][k]
+    })
+}
+
 impl Accel for BinaryBvh {
     fn name(&self) -> &'static str {
         "bvh"
@@ -200,6 +213,11 @@ mod tests {
     use super::*;
     use crate::bvh::BuildOptions;
     use crate::scene::Scene;
+
+    /// The inverse of [`pair_boxes`].
+    fn unpair_boxes(b: &[f32; 12]) -> [Aabb; 2] {
+        [0, 1].map(|c| Aabb::from_array(&[b[c], b[4 + c], b[8 + c], b[2 + c], b[6 + c], b[10 + c]]))
+    }
 
     #[test]
     fn storage_is_exact_and_nodes_decode_to_the_bvh() {
@@ -244,10 +262,10 @@ mod tests {
                         l | if link & LEFT_LEAF != 0 { LAST } else { 0 },
                         (l + lsize) | if link & RIGHT_LEAF != 0 { LAST } else { 0 },
                     ];
+                    let bits: [f32; 12] = std::array::from_fn(|j| f32::from_bits(b.words[at + j]));
+                    let boxes = unpair_boxes(&bits);
                     for (k, (c, kr)) in [left, right].into_iter().zip(kids).enumerate() {
-                        let bits: [f32; 6] =
-                            std::array::from_fn(|j| f32::from_bits(b.words[at + 6 * k + j]));
-                        assert_eq!(Aabb::from_array(&bits), bvh.nodes[c as usize].bounds);
+                        assert_eq!(boxes[k], bvh.nodes[c as usize].bounds);
                         todo.push((kr, c));
                     }
                 }

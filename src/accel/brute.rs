@@ -1,6 +1,6 @@
 use super::Accel;
 use crate::geometry::{Hit, Ray, Triangle};
-use crate::stats::Stats;
+use crate::stats::{Stats, Tally};
 use std::sync::Arc;
 
 /// The oracle: tests every triangle. Degenerate triangles are skipped, as
@@ -32,7 +32,10 @@ impl Accel for BruteForce {
     fn closest_hit<S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
         let mut best: Option<Hit> = None;
         let mut tmax = ray.tmax;
-        stats.triangles(self.live.len() as u32);
+        stats.add(Tally {
+            triangles: self.live.len() as u32,
+            ..Tally::default()
+        });
         for &p in &self.live {
             if let Some(h) = self.triangles[p as usize].hit(ray, ray.tmin, tmax, p) {
                 if h.beats(&best) {
@@ -45,12 +48,19 @@ impl Accel for BruteForce {
     }
 
     fn any_hit<S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
-        for &p in &self.live {
-            stats.triangles(1);
+        for (k, &p) in self.live.iter().enumerate() {
             if let Some(h) = self.triangles[p as usize].hit(ray, ray.tmin, ray.tmax, p) {
+                stats.add(Tally {
+                    triangles: k as u32 + 1,
+                    ..Tally::default()
+                });
                 return Some(h);
             }
         }
+        stats.add(Tally {
+            triangles: self.live.len() as u32,
+            ..Tally::default()
+        });
         None
     }
 }

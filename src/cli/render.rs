@@ -20,8 +20,9 @@ pub struct RenderArgs {
     /// Integrator: ambient occlusion (any-hit AO rays) or diffuse path tracing.
     #[arg(long, short = 'i', value_enum, default_value_t = IntegratorArg::Ao)]
     integrator: IntegratorArg,
-    /// Use the papers' settings: for ao, 16 eye and 256 AO rays per pixel at
-    /// 800×300 (chess) or 512×512; for path, 1024×1024 at 1 sample per pixel.
+    /// Use the papers' settings: for ao, 16 eye rays per pixel and 16 AO rays
+    /// at each eye-ray hit (256 AO rays per pixel) at 800×300 (chess) or
+    /// 512×512; for path, 1024×1024 at 1 sample per pixel.
     #[arg(long)]
     paper: bool,
     /// Image width in pixels [default: ao 400 (chess) or 256, path 512;
@@ -35,7 +36,7 @@ pub struct RenderArgs {
     /// AO: jittered eye rays per pixel [default: 4; --paper: 16].
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=4096))]
     eye_rays: Option<u32>,
-    /// AO: occlusion rays per eye-ray hit [default: 16; --paper: 256].
+    /// AO: occlusion rays per eye-ray hit [default: 8; --paper: 16].
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=65536))]
     ao_rays: Option<u32>,
     /// AO: length of the occlusion rays in scene units
@@ -60,10 +61,6 @@ pub struct RenderArgs {
     /// Also write the report as JSON to this file.
     #[arg(long)]
     json: Option<PathBuf>,
-    /// Do not count nodes, plane and triangle tests (the render time then
-    /// excludes their small cost; rays are still counted).
-    #[arg(long)]
-    no_stats: bool,
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -88,7 +85,6 @@ struct RenderReport {
     height: usize,
     threads: usize,
     render_seconds: f64,
-    counted: bool,
     rays: u64,
     mrays_per_second: f64,
     counters: Counters,
@@ -101,7 +97,6 @@ struct RenderWith<'a> {
     integrator: &'a Integrator,
     width: usize,
     height: usize,
-    count: bool,
     quiet: bool,
 }
 
@@ -116,7 +111,6 @@ impl WithAccel for RenderWith<'_> {
             self.integrator,
             self.width,
             self.height,
-            self.count,
             &|n| bar.inc(n as u64),
         );
         bar.finish_and_clear();
@@ -168,7 +162,7 @@ fn run_in_pool(args: &RenderArgs) -> Result<()> {
                 .unwrap_or(AoSettings::RADIUS_FRACTION * diagonal);
             let mut s = AoSettings::paper(radius);
             if !args.paper {
-                (s.eye_rays, s.ao_rays) = (4, 16);
+                (s.eye_rays, s.ao_rays) = (4, 8);
             }
             s.eye_rays = args.eye_rays.unwrap_or(s.eye_rays);
             s.ao_rays = args.ao_rays.unwrap_or(s.ao_rays);
@@ -193,7 +187,6 @@ fn run_in_pool(args: &RenderArgs) -> Result<()> {
         integrator: &integrator,
         width,
         height,
-        count: !args.no_stats,
         quiet: args.quiet,
     });
     rendered.image.save(&args.out)?;
@@ -210,7 +203,6 @@ fn run_in_pool(args: &RenderArgs) -> Result<()> {
         height,
         threads: rayon::current_num_threads(),
         render_seconds: rendered.seconds,
-        counted: !args.no_stats,
         rays: c.rays,
         mrays_per_second: c.rays as f64 / rendered.seconds / 1e6,
         counters: c,
@@ -248,26 +240,20 @@ fn print_report(r: &RenderReport) {
     );
     let what = match (&r.ao, &r.path) {
         (Some(a), _) => format!(
-            "ao, {} eye + {} AO rays per pixel, radius {}",
+            "ao, {} eye rays per pixel, {} AO rays per hit, radius {}",
             a.eye_rays, a.ao_rays, a.radius
         ),
         (_, Some(p)) => format!("path, {} spp, {} bounces", p.samples, p.bounces),
         _ => String::new(),
     };
     println!(
-        "render     {}×{} {what}: {:.3} s on {} threads{}",
-        r.width,
-        r.height,
-        r.render_seconds,
-        r.threads,
-        if r.counted { " (counting)" } else { "" }
+        "render     {}×{} {what}: {:.3} s on {} threads",
+        r.width, r.height, r.render_seconds, r.threads,
     );
     println!("rays       {} ({:.2} Mrays/s)", r.rays, r.mrays_per_second);
-    if r.counted {
-        println!(
-            "per ray    {:.2} nodes, {:.2} plane tests, {:.2} triangle tests",
-            r.per_ray.nodes, r.per_ray.planes, r.per_ray.triangles
-        );
-    }
+    println!(
+        "per ray    {:.2} nodes, {:.2} plane tests, {:.2} triangle tests",
+        r.per_ray.nodes, r.per_ray.planes, r.per_ray.triangles
+    );
     println!("wrote      {}", r.image.display());
 }

@@ -8,7 +8,7 @@ use raytree::bvh::BuildStats;
 use raytree::error::Result;
 use raytree::geometry::{Hit, Ray};
 use raytree::rayfile;
-use raytree::stats::{Counters, NoStats, PerRay};
+use raytree::stats::{Counters, PerRay};
 use serde::Serialize;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -30,8 +30,8 @@ pub struct TraceArgs {
     /// Any hit instead of the closest: t is some hit's distance in [tmin, tmax].
     #[arg(long)]
     any_hit: bool,
-    /// Count nodes, plane and triangle tests per ray and print them
-    /// (traced in a second pass, so that the timing excludes the counting).
+    /// Print the nodes, plane tests and triangle tests per ray (always in
+    /// the JSON report).
     #[arg(long)]
     stats: bool,
     /// Hit file format.
@@ -66,8 +66,8 @@ struct TraceReport {
     /// Tracing only: no file input or output.
     trace_seconds: f64,
     mrays_per_second: f64,
-    counters: Option<Counters>,
-    per_ray: Option<PerRay>,
+    counters: Counters,
+    per_ray: PerRay,
 }
 
 struct TraceWith<'a> {
@@ -76,49 +76,36 @@ struct TraceWith<'a> {
 }
 
 impl WithAccel for TraceWith<'_> {
-    type Output = (Vec<Option<Hit>>, f64);
+    type Output = (Vec<Option<Hit>>, Counters, f64);
     fn run<A: Accel>(self, a: &A) -> Self::Output {
         let start = Instant::now();
-        let hits = self
+        let parts: Vec<(Vec<Option<Hit>>, Counters)> = self
             .rays
-            .par_iter()
-            .with_min_len(256)
-            .map(|r| {
-                if self.any {
-                    a.any_hit(r, &mut NoStats)
-                } else {
-                    a.closest_hit(r, &mut NoStats)
-                }
+            .par_chunks(1024)
+            .map(|chunk| {
+                let mut c = Counters::default();
+                let hits: Vec<_> = chunk
+                    .iter()
+                    .map(|r| {
+                        c.rays += 1;
+                        if self.any {
+                            a.any_hit(r, &mut c)
+                        } else {
+                            a.closest_hit(r, &mut c)
+                        }
+                    })
+                    .collect();
+                (hits, c)
             })
             .collect();
-        (hits, start.elapsed().as_secs_f64())
-    }
-}
-
-struct CountWith<'a> {
-    rays: &'a [Ray],
-    any: bool,
-}
-
-impl WithAccel for CountWith<'_> {
-    type Output = Counters;
-    fn run<A: Accel>(self, a: &A) -> Counters {
-        self.rays
-            .par_iter()
-            .with_min_len(256)
-            .fold(Counters::default, |mut c, r| {
-                c.rays += 1;
-                if self.any {
-                    a.any_hit(r, &mut c);
-                } else {
-                    a.closest_hit(r, &mut c);
-                }
-                c
-            })
-            .reduce(Counters::default, |mut a, b| {
-                a += b;
-                a
-            })
+        let seconds = start.elapsed().as_secs_f64();
+        let mut hits = Vec::with_capacity(self.rays.len());
+        let mut total = Counters::default();
+        for (h, c) in parts {
+            hits.extend(h);
+            total += c;
+        }
+        (hits, total, seconds)
     }
 }
 
@@ -130,7 +117,7 @@ pub fn run(args: TraceArgs) -> Result<()> {
         let (bvh, bvh_stats) = common::build_bvh(&scene, &args.scene);
         let (built, info) = common::build_structure(&scene, &bvh, &args.structure)?;
         drop(bvh);
-        let (hits, seconds) = built.with(TraceWith {
+        let (hits, counters, seconds) = built.with(TraceWith {
             rays: &rays,
             any: args.any_hit,
         });
@@ -146,12 +133,6 @@ pub fn run(args: TraceArgs) -> Result<()> {
                 raytree::render::write_atomically(&args.out, |w| rayfile::write_hits_csv(w, &hits))?
             }
         }
-        let counters = args.stats.then(|| {
-            built.with(CountWith {
-                rays: &rays,
-                any: args.any_hit,
-            })
-        });
         let report = TraceReport {
             scene: scene_report,
             bvh: bvh_stats,
@@ -163,7 +144,7 @@ pub fn run(args: TraceArgs) -> Result<()> {
             trace_seconds: seconds,
             mrays_per_second: rays.len() as f64 / seconds.max(1e-12) / 1e6,
             counters,
-            per_ray: counters.map(|c| c.per_ray()),
+            per_ray: counters.per_ray(),
         };
         println!(
             "traced     {} rays ({} hits) through {} in {:.3} s: {:.2} Mrays/s on {} threads",
@@ -174,7 +155,8 @@ pub fn run(args: TraceArgs) -> Result<()> {
             report.mrays_per_second,
             report.threads
         );
-        if let Some(p) = report.per_ray {
+        if args.stats {
+            let p = report.per_ray;
             println!(
                 "per ray    {:.2} nodes, {:.2} plane tests, {:.2} triangle tests",
                 p.nodes, p.planes, p.triangles

@@ -69,12 +69,13 @@ impl Triangle {
     /// opposite sign: no ray slips between them. No FMA is used on purpose.
     #[inline(always)]
     pub fn intersect(&self, ray: &Ray, tmin: f32, tmax: f32) -> Option<(f32, f32, f32)> {
-        let [kx, ky, kz] = ray.k;
+        // `& 3` into 4-wide arrays: the compiler sees the indices in range.
+        let [kx, ky, kz] = ray.k.map(|k| k & 3);
         let s = ray.shear;
         let o = ray.origin();
-        let a = (self.a - o).to_array();
-        let b = (self.b - o).to_array();
-        let c = (self.c - o).to_array();
+        let a = (self.a - o).extend(0.0).to_array();
+        let b = (self.b - o).extend(0.0).to_array();
+        let c = (self.c - o).extend(0.0).to_array();
         let ax = a[kx] - s.x * a[kz];
         let ay = a[ky] - s.y * a[kz];
         let bx = b[kx] - s.x * b[kz];

@@ -1,6 +1,8 @@
 //! Ambient occlusion, as the stackless paper's ray tracer renders it: N
 //! jittered eye rays per pixel and, at each eye-ray hit, M cosine-weighted
-//! occlusion rays of a fixed length, traced as any-hit queries.
+//! occlusion rays of a fixed length, traced as any-hit queries. The paper's
+//! "16 eye and 256 AO rays per pixel" is N = 16 and M = 16 (its tracer
+//! shoots 4×4 AO rays at each of 4×4 eye-ray hits).
 
 use super::sampling::{cosine_hemisphere, eye_ray, facing_normal, offset_origin};
 use super::{Ctx, RaySink};
@@ -10,7 +12,9 @@ use crate::rng::Pcg32;
 
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct AoSettings {
+    /// Eye rays per pixel.
     pub eye_rays: u32,
+    /// Occlusion rays per eye-ray hit.
     pub ao_rays: u32,
     /// Length of the occlusion rays, in scene units.
     pub radius: f32,
@@ -19,11 +23,12 @@ pub struct AoSettings {
 }
 
 impl AoSettings {
-    /// The stackless paper's settings: 16 eye and 256 AO rays per pixel.
+    /// The stackless paper's settings: 16 eye rays per pixel, 16 AO rays
+    /// per eye-ray hit (256 AO rays per pixel).
     pub fn paper(radius: f32) -> Self {
         AoSettings {
             eye_rays: 16,
-            ao_rays: 256,
+            ao_rays: 16,
             radius,
             background: 1.0,
         }

@@ -7,6 +7,7 @@
 mod ao;
 mod image;
 mod path;
+pub mod rayset;
 mod sampling;
 
 pub use self::image::{write_atomically, Image};
@@ -15,7 +16,7 @@ pub use path::PathSettings;
 
 use crate::accel::Accel;
 use crate::scene::Scene;
-use crate::stats::{Counters, NoStats, Stats};
+use crate::stats::{Counters, Stats};
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -38,16 +39,15 @@ pub struct Rendered {
 /// Image tiles are this many pixels square.
 const TILE: usize = 16;
 
-/// Renders `scene` through `accel`. With `count`, traversal work is counted
-/// (which costs a little time); without, only rays are counted.
-/// `progress` is called once per finished tile with the number of tiles.
+/// Renders `scene` through `accel`, counting rays and traversal work (which
+/// costs nothing measurable: traversals tally in registers).
+/// `progress` is called once per finished tile.
 pub fn render<A: Accel>(
     accel: &A,
     scene: &Scene,
     integrator: &Integrator,
     width: usize,
     height: usize,
-    count: bool,
     progress: &(dyn Fn(usize) + Sync),
 ) -> Rendered {
     let start = Instant::now();
@@ -63,23 +63,10 @@ pub fn render<A: Accel>(
     let results: Vec<(Vec<f32>, Counters)> = tiles
         .par_iter()
         .map(|&(tx, ty)| {
-            let r = if count {
-                let mut c = Counters::default();
-                let px = render_tile(accel, &ctx, integrator, tx, ty, &mut c);
-                (px, c)
-            } else {
-                let mut rays = RayCount(0);
-                let px = render_tile(accel, &ctx, integrator, tx, ty, &mut rays);
-                (
-                    px,
-                    Counters {
-                        rays: rays.0,
-                        ..Default::default()
-                    },
-                )
-            };
+            let mut c = Counters::default();
+            let px = render_tile(accel, &ctx, integrator, tx, ty, &mut c);
             progress(1);
-            r
+            (px, c)
         })
         .collect();
     let mut image = Image::new(width, height);
@@ -112,21 +99,6 @@ struct Ctx<'a> {
     height: usize,
 }
 
-/// A sink that counts only what the caller adds to `rays`: the traversal's
-/// own counting compiles away as with [`NoStats`].
-struct RayCount(u64);
-
-impl Stats for RayCount {
-    #[inline(always)]
-    fn node(&mut self, id: impl FnOnce() -> u32) {
-        NoStats.node(id)
-    }
-    #[inline(always)]
-    fn planes(&mut self, _: u32) {}
-    #[inline(always)]
-    fn triangles(&mut self, _: u32) {}
-}
-
 /// Sinks that know how many rays were traced.
 trait RaySink: Stats {
     fn ray(&mut self);
@@ -136,13 +108,6 @@ impl RaySink for Counters {
     #[inline(always)]
     fn ray(&mut self) {
         self.rays += 1;
-    }
-}
-
-impl RaySink for RayCount {
-    #[inline(always)]
-    fn ray(&mut self) {
-        self.0 += 1;
     }
 }
 

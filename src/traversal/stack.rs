@@ -8,7 +8,7 @@ use crate::accel::binary_bvh::{
     BinaryBvh, NodeRef, INNER_WORDS, LAST, LEFT_LEAF, OFFSET_MASK, RIGHT_LEAF,
 };
 use crate::geometry::{BoxRay, Hit, Ray};
-use crate::stats::Stats;
+use crate::stats::{Stats, Tally};
 use crate::traversal::MAX_STACK_DEPTH;
 
 /// Closest hit (`ANY = false`) or any hit (`ANY = true`) over the
@@ -21,8 +21,12 @@ pub fn trace<S: Stats, const ANY: bool>(bvh: &BinaryBvh, ray: &Ray, stats: &mut 
     let br = BoxRay::new(ray);
     let tmin = ray.tmin;
     let mut tmax = ray.tmax;
-    stats.planes(6);
+    let mut tally = Tally {
+        planes: 6,
+        ..Tally::default()
+    };
     if br.test(&bvh.root_bounds.to_array(), tmin, tmax) == f32::INFINITY {
+        stats.add(tally);
         return None;
     }
     let words = &bvh.words[..];
@@ -31,15 +35,19 @@ pub fn trace<S: Stats, const ANY: bool>(bvh: &BinaryBvh, ray: &Ray, stats: &mut 
     let mut sp = 0;
     let mut node = bvh.root;
     loop {
-        stats.node(|| bvh.canonical_id(node));
+        tally.nodes += 1;
+        if S::LOGS {
+            stats.visit(bvh.canonical_id(node));
+        }
         if node & LAST != 0 {
             let mut i = words[(node & !LAST) as usize] as usize;
             loop {
                 let entry = bvh.index[i];
                 let prim = entry & !LAST;
-                stats.triangles(1);
+                tally.triangles += 1;
                 if let Some(h) = bvh.triangles[prim as usize].hit(ray, tmin, tmax, prim) {
                     if ANY {
+                        stats.add(tally);
                         return Some(h);
                     }
                     if h.beats(&best) {
@@ -55,11 +63,9 @@ pub fn trace<S: Stats, const ANY: bool>(bvh: &BinaryBvh, ray: &Ray, stats: &mut 
         } else {
             let at = node as usize;
             let n: &[u32; INNER_WORDS] = words[at..at + INNER_WORDS].try_into().unwrap();
-            stats.planes(12);
-            let lb: [f32; 6] = std::array::from_fn(|k| f32::from_bits(n[k]));
-            let rb: [f32; 6] = std::array::from_fn(|k| f32::from_bits(n[6 + k]));
-            let tl = br.test(&lb, tmin, tmax);
-            let tr = br.test(&rb, tmin, tmax);
+            tally.planes += 12;
+            let boxes: [f32; 12] = std::array::from_fn(|k| f32::from_bits(n[k]));
+            let [tl, tr] = br.test_pair(&boxes, tmin, tmax);
             let link = n[12];
             let l = link & OFFSET_MASK;
             let left = l | ((link & LEFT_LEAF != 0) as u32) << 31;
@@ -87,6 +93,7 @@ pub fn trace<S: Stats, const ANY: bool>(bvh: &BinaryBvh, ray: &Ray, stats: &mut 
             }
         }
         if sp == 0 {
+            stats.add(tally);
             return best;
         }
         sp -= 1;

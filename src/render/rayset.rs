@@ -1,0 +1,52 @@
+//! Fixed ray sets for tests and benchmarks: the eye rays and AO rays the AO
+//! integrator would trace, generated with the same sampling.
+
+use super::sampling::{cosine_hemisphere, eye_ray, facing_normal, offset_origin};
+use crate::accel::Accel;
+use crate::geometry::Ray;
+use crate::rng::Pcg32;
+use crate::scene::Scene;
+use crate::stats::NoStats;
+
+/// `spp` jittered eye rays per pixel of a `w`×`h` image (coherent rays).
+pub fn eye_rays(scene: &Scene, w: usize, h: usize, spp: u32) -> Vec<Ray> {
+    let mut rays = Vec::with_capacity(w * h * spp as usize);
+    for y in 0..h {
+        for x in 0..w {
+            for s in 0..spp {
+                let mut rng = Pcg32::new((y * w + x) as u64, s as u64);
+                rays.push(eye_ray(scene, x, y, w, h, &mut rng));
+            }
+        }
+    }
+    rays
+}
+
+/// `per_hit` cosine-weighted occlusion rays of length `radius` at each hit
+/// of `eye` (incoherent rays), the hits found through `accel`.
+pub fn ao_rays<A: Accel>(
+    scene: &Scene,
+    accel: &A,
+    eye: &[Ray],
+    per_hit: u32,
+    radius: f32,
+) -> Vec<Ray> {
+    let mut rays = Vec::new();
+    for (i, r) in eye.iter().enumerate() {
+        let Some(hit) = accel.closest_hit(r, &mut NoStats) else {
+            continue;
+        };
+        let n = facing_normal(scene, r, &hit);
+        let origin = offset_origin(r.at(hit.t), n);
+        let mut rng = Pcg32::new(i as u64, 0xA0);
+        for _ in 0..per_hit {
+            rays.push(Ray::new(
+                origin,
+                cosine_hemisphere(n, &mut rng),
+                0.0,
+                radius,
+            ));
+        }
+    }
+    rays
+}
