@@ -6,6 +6,7 @@ use raytree::accel::{Built, StructureInfo, StructureKind, TraversalKind};
 use raytree::bvh::{BuildOptions, BuildStats, Builder, Bvh};
 use raytree::error::Result;
 use raytree::scene::Scene;
+use raytree::prelude::Vec3;
 use serde::Serialize;
 use std::path::Path;
 
@@ -23,6 +24,36 @@ pub struct SceneArgs {
     /// Most triangles in a BVH leaf (1 to 255).
     #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u16).range(1..=255))]
     pub max_leaf: u16,
+    /// Camera position "x,y,z" in scene units [default: the scene's camera;
+    /// a file's camera frames its bounds].
+    #[arg(long, value_parser = parse_vec3)]
+    pub eye: Option<Vec3>,
+    /// Point the camera looks at, "x,y,z".
+    #[arg(long, value_parser = parse_vec3)]
+    pub look_at: Option<Vec3>,
+    /// Vertical field of view in degrees.
+    #[arg(long, value_parser = parse_fov)]
+    pub fov: Option<f32>,
+}
+
+fn parse_vec3(s: &str) -> std::result::Result<Vec3, String> {
+    let v: Vec<f32> = s
+        .split(',')
+        .map(|c| c.trim().parse::<f32>().map_err(|e| format!("'{c}': {e}")))
+        .collect::<std::result::Result<_, _>>()?;
+    match v[..] {
+        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok(Vec3::new(x, y, z)),
+        _ => Err(format!("expected three finite numbers \"x,y,z\", got '{s}'")),
+    }
+}
+
+fn parse_fov(s: &str) -> std::result::Result<f32, String> {
+    let f: f32 = s.parse().map_err(|e| format!("{e}"))?;
+    if f > 0.0 && f < 180.0 {
+        Ok(f)
+    } else {
+        Err(format!("{f} is not an angle in (0, 180) degrees"))
+    }
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug)]
@@ -56,7 +87,16 @@ pub struct SceneReport {
 
 pub fn load_scene(args: &SceneArgs) -> Result<(Scene, SceneReport)> {
     let start = std::time::Instant::now();
-    let scene = Scene::from_spec(&args.scene)?;
+    let mut scene = Scene::from_spec(&args.scene)?;
+    let cam = &mut scene.camera;
+    cam.eye = args.eye.unwrap_or(cam.eye);
+    cam.target = args.look_at.unwrap_or(cam.target);
+    cam.fov_y = args.fov.unwrap_or(cam.fov_y);
+    if cam.eye == cam.target {
+        return Err(raytree::error::Error::Invalid(
+            "--eye and --look-at are the same point".into(),
+        ));
+    }
     let b = scene.mesh.bounds();
     let report = SceneReport {
         scene: scene.name.clone(),

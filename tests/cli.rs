@@ -1,0 +1,178 @@
+//! Tests that run the `raytree` binary.
+
+mod common;
+
+use raytree::prelude::*;
+use raytree::rayfile;
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn raytree(args: &[&str], dir: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_raytree"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("the binary runs")
+}
+
+fn ok(out: &Output) -> String {
+    assert!(
+        out.status.success(),
+        "exit {:?}: {}",
+        out.status.code(),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout.clone()).unwrap()
+}
+
+/// Fails with `code`, one line on stderr that contains `needle`, and leaves
+/// the directory as it was (no partial output).
+fn fails(args: &[&str], code: i32, needle: &str) {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("short.rays"), [0u8; 40]).unwrap();
+    let before: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
+    let out = raytree(args, dir.path());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(code), "{args:?}: {err}");
+    assert!(err.contains(needle), "{args:?}: stderr lacks '{needle}': {err}");
+    if code == 1 {
+        assert_eq!(err.trim_end().lines().count(), 1, "{args:?}: not one line: {err}");
+    }
+    let after: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
+    assert_eq!(before, after, "{args:?} left files behind");
+}
+
+#[test]
+fn ao_and_path_renders_have_the_asked_size() {
+    let dir = tempfile::tempdir().unwrap();
+    for integrator in ["ao", "path"] {
+        let out = ok(&raytree(
+            &["render", "-s", "chess:3000", "-i", integrator, "--width", "40", "--height", "24", "-q", "-o", "x.png", "--json", "x.json"],
+            dir.path(),
+        ));
+        assert!(out.contains("Mrays/s"), "{out}");
+        let img = image::open(dir.path().join("x.png")).unwrap().to_luma8();
+        assert_eq!(img.dimensions(), (40, 24));
+        // Sky is white (AO background, path sky radiance 1), and the scene
+        // is shaded: values span a range.
+        let (lo, hi) = img.pixels().fold((255u8, 0u8), |(lo, hi), p| (lo.min(p.0[0]), hi.max(p.0[0])));
+        assert_eq!(hi, 255, "{integrator}: no sky");
+        assert!(lo < 200, "{integrator}: nothing shaded ({lo})");
+        let json: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(dir.path().join("x.json")).unwrap()).unwrap();
+        assert!(json["rays"].as_u64().unwrap() >= 40 * 24);
+        assert!(json["per_ray"]["nodes"].as_f64().unwrap() > 0.0);
+        assert_eq!(json["structure"]["structure"], "bvh");
+    }
+}
+
+#[test]
+fn images_are_bit_identical_for_any_thread_count() {
+    let dir = tempfile::tempdir().unwrap();
+    for integrator in ["ao", "path"] {
+        for threads in ["1", "2", "3"] {
+            let name = format!("{integrator}{threads}.ppm");
+            ok(&raytree(
+                &["render", "-s", "hairball:2000", "-i", integrator, "--width", "37", "--height", "29", "--threads", threads, "-q", "-o", &name],
+                dir.path(),
+            ));
+        }
+        let one = std::fs::read(dir.path().join(format!("{integrator}1.ppm"))).unwrap();
+        assert!(one.starts_with(b"P6\n37 29\n255\n"));
+        for t in ["2", "3"] {
+            assert_eq!(one, std::fs::read(dir.path().join(format!("{integrator}{t}.ppm"))).unwrap(), "{integrator}");
+        }
+    }
+}
+
+#[test]
+fn trace_gives_the_librarys_answers() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = Scene::builtin("chess:2000").unwrap();
+    let rays = common::mixed_rays(&scene, 3000, 11);
+    std::fs::write(dir.path().join("r.rays"), rayfile::encode_rays(&rays)).unwrap();
+    let bvh = Bvh::build(&scene.triangles, &BuildOptions::sah());
+    let layout = BinaryBvh::from_bvh(&bvh, scene.triangles.clone()).unwrap();
+    let brute = BruteForce::new(scene.triangles.clone());
+    for any in [false, true] {
+        for accel in ["bvh", "brute"] {
+            let mut args = vec!["trace", "-s", "chess:2000", "-a", accel, "--rays", "r.rays", "-o", "h.bin", "--stats", "--json", "t.json"];
+            if any {
+                args.push("--any-hit");
+            }
+            let out = ok(&raytree(&args, dir.path()));
+            assert!(out.contains("per ray"), "{out}");
+            let hits = rayfile::decode_hits(&std::fs::read(dir.path().join("h.bin")).unwrap()).unwrap();
+            assert_eq!(hits.len(), rays.len());
+            for (r, h) in rays.iter().zip(&hits) {
+                if any {
+                    assert_eq!(h.is_some(), layout.closest_hit(r, &mut NoStats).is_some());
+                } else if accel == "bvh" {
+                    assert_eq!(*h, layout.closest_hit(r, &mut NoStats));
+                } else {
+                    assert_eq!(*h, brute.closest_hit(r, &mut NoStats));
+                }
+            }
+            let json: serde_json::Value =
+                serde_json::from_slice(&std::fs::read(dir.path().join("t.json")).unwrap()).unwrap();
+            assert_eq!(json["rays"], rays.len());
+            assert!(json["mrays_per_second"].as_f64().unwrap() > 0.0);
+        }
+        // CSV: the same values as text.
+        let mut args = vec!["trace", "-s", "chess:2000", "--rays", "r.rays", "-o", "h.csv", "--format", "csv"];
+        if any {
+            args.push("--any-hit");
+        }
+        ok(&raytree(&args, dir.path()));
+        let csv = std::fs::read_to_string(dir.path().join("h.csv")).unwrap();
+        let lines: Vec<&str> = csv.lines().collect();
+        assert_eq!(lines[0], "ray,t,triangle,u,v");
+        assert_eq!(lines.len(), rays.len() + 1);
+        for (i, (line, r)) in lines[1..].iter().zip(&rays).enumerate() {
+            let f: Vec<&str> = line.split(',').collect();
+            assert_eq!(f[0], i.to_string());
+            let want = if any { layout.any_hit(r, &mut NoStats) } else { layout.closest_hit(r, &mut NoStats) };
+            match want {
+                Some(h) => {
+                    assert_eq!(f[1].parse::<f32>().unwrap(), h.t);
+                    assert_eq!(f[2].parse::<u32>().unwrap(), h.prim);
+                }
+                None => assert_eq!((f[1], f[2]), ("inf", "4294967295")),
+            }
+        }
+    }
+}
+
+#[test]
+fn failures_are_one_clear_line_and_leave_no_output() {
+    fails(&["render", "-s", "missing.obj", "-o", "a.png"], 1, "missing.obj");
+    fails(&["render", "-s", "nosuchscene", "-o", "a.png"], 1, "unknown scene");
+    fails(&["render", "-s", "chess:1", "-o", "a.png"], 1, "size");
+    fails(&["render", "-a", "dst", "-o", "a.png"], 1, "not implemented yet");
+    fails(&["render", "-t", "implicit-a", "-o", "a.png"], 1, "not implemented yet");
+    fails(&["render", "-a", "brute", "-t", "laine-2", "-o", "a.png"], 1, "bvh");
+    fails(&["render", "-s", "chess:2000", "-o", "/nonexistent/dir/a.png", "-q"], 1, "/nonexistent/dir/a.png");
+    fails(&["render", "--ao-radius=-1", "-o", "a.png"], 1, "ao-radius");
+    fails(&["trace", "-s", "chess:2000", "--rays", "short.rays", "-o", "h.bin"], 1, "multiple of 32");
+    fails(&["trace", "-s", "chess:2000", "--rays", "none.rays", "-o", "h.bin"], 1, "none.rays");
+    // Usage errors: exit 2.
+    fails(&["render", "-a", "octree"], 2, "octree");
+    fails(&["render", "--width", "0"], 2, "width");
+    fails(&["render", "--eye", "1,2"], 2, "eye");
+    fails(&["render", "--fov", "200"], 2, "fov");
+    fails(&["trace", "-s", "chess"], 2, "--rays");
+    fails(&["frobnicate"], 2, "frobnicate");
+}
+
+#[test]
+fn info_lists_the_structures() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = ok(&raytree(&["info", "-s", "chess:3000", "--json", "i.json"], dir.path()));
+    assert!(out.contains("| bvh |") && out.contains("| brute |"), "{out}");
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.path().join("i.json")).unwrap()).unwrap();
+    let bvh = &json["structures"][0];
+    let inner = bvh["inner_nodes"].as_u64().unwrap();
+    let leaves = bvh["leaves"].as_u64().unwrap();
+    assert_eq!(bvh["node_bytes"].as_u64().unwrap(), 52 * inner + 4 * leaves);
+    assert_eq!(json["bvh"]["nodes"].as_u64().unwrap(), inner + leaves);
+}
