@@ -30,15 +30,28 @@ fn ok(out: &Output) -> String {
 fn fails(args: &[&str], code: i32, needle: &str) {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("short.rays"), [0u8; 40]).unwrap();
-    let before: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
+    let before: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
     let out = raytree(args, dir.path());
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(code), "{args:?}: {err}");
-    assert!(err.contains(needle), "{args:?}: stderr lacks '{needle}': {err}");
+    assert!(
+        err.contains(needle),
+        "{args:?}: stderr lacks '{needle}': {err}"
+    );
     if code == 1 {
-        assert_eq!(err.trim_end().lines().count(), 1, "{args:?}: not one line: {err}");
+        assert_eq!(
+            err.trim_end().lines().count(),
+            1,
+            "{args:?}: not one line: {err}"
+        );
     }
-    let after: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
+    let after: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
     assert_eq!(before, after, "{args:?} left files behind");
 }
 
@@ -47,7 +60,22 @@ fn ao_and_path_renders_have_the_asked_size() {
     let dir = tempfile::tempdir().unwrap();
     for integrator in ["ao", "path"] {
         let out = ok(&raytree(
-            &["render", "-s", "chess:3000", "-i", integrator, "--width", "40", "--height", "24", "-q", "-o", "x.png", "--json", "x.json"],
+            &[
+                "render",
+                "-s",
+                "chess:3000",
+                "-i",
+                integrator,
+                "--width",
+                "40",
+                "--height",
+                "24",
+                "-q",
+                "-o",
+                "x.png",
+                "--json",
+                "x.json",
+            ],
             dir.path(),
         ));
         assert!(out.contains("Mrays/s"), "{out}");
@@ -55,7 +83,9 @@ fn ao_and_path_renders_have_the_asked_size() {
         assert_eq!(img.dimensions(), (40, 24));
         // Sky is white (AO background, path sky radiance 1), and the scene
         // is shaded: values span a range.
-        let (lo, hi) = img.pixels().fold((255u8, 0u8), |(lo, hi), p| (lo.min(p.0[0]), hi.max(p.0[0])));
+        let (lo, hi) = img
+            .pixels()
+            .fold((255u8, 0u8), |(lo, hi), p| (lo.min(p.0[0]), hi.max(p.0[0])));
         assert_eq!(hi, 255, "{integrator}: no sky");
         assert!(lo < 200, "{integrator}: nothing shaded ({lo})");
         let json: serde_json::Value =
@@ -73,14 +103,33 @@ fn images_are_bit_identical_for_any_thread_count() {
         for threads in ["1", "2", "3"] {
             let name = format!("{integrator}{threads}.ppm");
             ok(&raytree(
-                &["render", "-s", "hairball:2000", "-i", integrator, "--width", "37", "--height", "29", "--threads", threads, "-q", "-o", &name],
+                &[
+                    "render",
+                    "-s",
+                    "hairball:2000",
+                    "-i",
+                    integrator,
+                    "--width",
+                    "37",
+                    "--height",
+                    "29",
+                    "--threads",
+                    threads,
+                    "-q",
+                    "-o",
+                    &name,
+                ],
                 dir.path(),
             ));
         }
         let one = std::fs::read(dir.path().join(format!("{integrator}1.ppm"))).unwrap();
         assert!(one.starts_with(b"P6\n37 29\n255\n"));
         for t in ["2", "3"] {
-            assert_eq!(one, std::fs::read(dir.path().join(format!("{integrator}{t}.ppm"))).unwrap(), "{integrator}");
+            assert_eq!(
+                one,
+                std::fs::read(dir.path().join(format!("{integrator}{t}.ppm"))).unwrap(),
+                "{integrator}"
+            );
         }
     }
 }
@@ -96,13 +145,27 @@ fn trace_gives_the_librarys_answers() {
     let brute = BruteForce::new(scene.triangles.clone());
     for any in [false, true] {
         for accel in ["bvh", "brute"] {
-            let mut args = vec!["trace", "-s", "chess:2000", "-a", accel, "--rays", "r.rays", "-o", "h.bin", "--stats", "--json", "t.json"];
+            let mut args = vec![
+                "trace",
+                "-s",
+                "chess:2000",
+                "-a",
+                accel,
+                "--rays",
+                "r.rays",
+                "-o",
+                "h.bin",
+                "--stats",
+                "--json",
+                "t.json",
+            ];
             if any {
                 args.push("--any-hit");
             }
             let out = ok(&raytree(&args, dir.path()));
             assert!(out.contains("per ray"), "{out}");
-            let hits = rayfile::decode_hits(&std::fs::read(dir.path().join("h.bin")).unwrap()).unwrap();
+            let hits =
+                rayfile::decode_hits(&std::fs::read(dir.path().join("h.bin")).unwrap()).unwrap();
             assert_eq!(hits.len(), rays.len());
             for (r, h) in rays.iter().zip(&hits) {
                 if any {
@@ -119,7 +182,17 @@ fn trace_gives_the_librarys_answers() {
             assert!(json["mrays_per_second"].as_f64().unwrap() > 0.0);
         }
         // CSV: the same values as text.
-        let mut args = vec!["trace", "-s", "chess:2000", "--rays", "r.rays", "-o", "h.csv", "--format", "csv"];
+        let mut args = vec![
+            "trace",
+            "-s",
+            "chess:2000",
+            "--rays",
+            "r.rays",
+            "-o",
+            "h.csv",
+            "--format",
+            "csv",
+        ];
         if any {
             args.push("--any-hit");
         }
@@ -131,7 +204,11 @@ fn trace_gives_the_librarys_answers() {
         for (i, (line, r)) in lines[1..].iter().zip(&rays).enumerate() {
             let f: Vec<&str> = line.split(',').collect();
             assert_eq!(f[0], i.to_string());
-            let want = if any { layout.any_hit(r, &mut NoStats) } else { layout.closest_hit(r, &mut NoStats) };
+            let want = if any {
+                layout.any_hit(r, &mut NoStats)
+            } else {
+                layout.closest_hit(r, &mut NoStats)
+            };
             match want {
                 Some(h) => {
                     assert_eq!(f[1].parse::<f32>().unwrap(), h.t);
@@ -145,16 +222,71 @@ fn trace_gives_the_librarys_answers() {
 
 #[test]
 fn failures_are_one_clear_line_and_leave_no_output() {
-    fails(&["render", "-s", "missing.obj", "-o", "a.png"], 1, "missing.obj");
-    fails(&["render", "-s", "nosuchscene", "-o", "a.png"], 1, "unknown scene");
+    fails(
+        &["render", "-s", "missing.obj", "-o", "a.png"],
+        1,
+        "missing.obj",
+    );
+    fails(
+        &["render", "-s", "nosuchscene", "-o", "a.png"],
+        1,
+        "unknown scene",
+    );
     fails(&["render", "-s", "chess:1", "-o", "a.png"], 1, "size");
-    fails(&["render", "-a", "dst", "-o", "a.png"], 1, "not implemented yet");
-    fails(&["render", "-t", "implicit-a", "-o", "a.png"], 1, "not implemented yet");
-    fails(&["render", "-a", "brute", "-t", "laine-2", "-o", "a.png"], 1, "bvh");
-    fails(&["render", "-s", "chess:2000", "-o", "/nonexistent/dir/a.png", "-q"], 1, "/nonexistent/dir/a.png");
+    fails(
+        &["render", "-a", "dst", "-o", "a.png"],
+        1,
+        "not implemented yet",
+    );
+    fails(
+        &["render", "-t", "implicit-a", "-o", "a.png"],
+        1,
+        "not implemented yet",
+    );
+    fails(
+        &["render", "-a", "brute", "-t", "laine-2", "-o", "a.png"],
+        1,
+        "bvh",
+    );
+    fails(
+        &[
+            "render",
+            "-s",
+            "chess:2000",
+            "-o",
+            "/nonexistent/dir/a.png",
+            "-q",
+        ],
+        1,
+        "/nonexistent/dir/a.png",
+    );
     fails(&["render", "--ao-radius=-1", "-o", "a.png"], 1, "ao-radius");
-    fails(&["trace", "-s", "chess:2000", "--rays", "short.rays", "-o", "h.bin"], 1, "multiple of 32");
-    fails(&["trace", "-s", "chess:2000", "--rays", "none.rays", "-o", "h.bin"], 1, "none.rays");
+    fails(
+        &[
+            "trace",
+            "-s",
+            "chess:2000",
+            "--rays",
+            "short.rays",
+            "-o",
+            "h.bin",
+        ],
+        1,
+        "multiple of 32",
+    );
+    fails(
+        &[
+            "trace",
+            "-s",
+            "chess:2000",
+            "--rays",
+            "none.rays",
+            "-o",
+            "h.bin",
+        ],
+        1,
+        "none.rays",
+    );
     // Usage errors: exit 2.
     fails(&["render", "-a", "octree"], 2, "octree");
     fails(&["render", "--width", "0"], 2, "width");
@@ -167,9 +299,16 @@ fn failures_are_one_clear_line_and_leave_no_output() {
 #[test]
 fn info_lists_the_structures() {
     let dir = tempfile::tempdir().unwrap();
-    let out = ok(&raytree(&["info", "-s", "chess:3000", "--json", "i.json"], dir.path()));
-    assert!(out.contains("| bvh |") && out.contains("| brute |"), "{out}");
-    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.path().join("i.json")).unwrap()).unwrap();
+    let out = ok(&raytree(
+        &["info", "-s", "chess:3000", "--json", "i.json"],
+        dir.path(),
+    ));
+    assert!(
+        out.contains("| bvh |") && out.contains("| brute |"),
+        "{out}"
+    );
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("i.json")).unwrap()).unwrap();
     let bvh = &json["structures"][0];
     let inner = bvh["inner_nodes"].as_u64().unwrap();
     let leaves = bvh["leaves"].as_u64().unwrap();

@@ -5,8 +5,8 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use raytree::accel::{Built, StructureInfo, StructureKind, TraversalKind};
 use raytree::bvh::{BuildOptions, BuildStats, Builder, Bvh};
 use raytree::error::Result;
-use raytree::scene::Scene;
 use raytree::prelude::Vec3;
+use raytree::scene::Scene;
 use serde::Serialize;
 use std::path::Path;
 
@@ -43,7 +43,9 @@ fn parse_vec3(s: &str) -> std::result::Result<Vec3, String> {
         .collect::<std::result::Result<_, _>>()?;
     match v[..] {
         [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok(Vec3::new(x, y, z)),
-        _ => Err(format!("expected three finite numbers \"x,y,z\", got '{s}'")),
+        _ => Err(format!(
+            "expected three finite numbers \"x,y,z\", got '{s}'"
+        )),
     }
 }
 
