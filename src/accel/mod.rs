@@ -4,11 +4,18 @@
 
 pub(crate) mod binary_bvh;
 mod brute;
+pub mod implicit_bvh;
+pub(crate) mod own_box_node;
 mod select;
+pub mod sparse_bvh;
 
 pub use binary_bvh::BinaryBvh;
 pub use brute::BruteForce;
-pub use select::{check, Built, StructureInfo, StructureKind, TraversalKind, WithAccel};
+pub use implicit_bvh::ImplicitBvh;
+pub use select::{
+    check, Built, LayoutOptions, StructureInfo, StructureKind, TraversalKind, WithAccel,
+};
+pub use sparse_bvh::SparseBvh;
 
 use crate::geometry::{Hit, Ray};
 use crate::stats::Stats;

@@ -2,10 +2,14 @@
 //! and the benchmarks spell them, and the dispatch from a name to a
 //! monomorphized trace.
 
-use super::{Accel, BinaryBvh, BruteForce};
+use super::implicit_bvh::DEFAULT_RESERVATION_LIMIT;
+use super::{Accel, BinaryBvh, BruteForce, ImplicitBvh, SparseBvh};
 use crate::bvh::Bvh;
 use crate::error::{Error, Result};
 use crate::geometry::Triangle;
+use crate::traversal::{
+    state_bytes, Hapala, ImplicitA, ImplicitB, Laine, OnImplicit, OnSparse, Sparse, StackOnSparse,
+};
 use serde::Serialize;
 use std::sync::Arc;
 use std::time::Instant;
@@ -108,7 +112,7 @@ impl TraversalKind {
     }
 
     pub fn is_available(self) -> bool {
-        matches!(self, TraversalKind::Stack)
+        true
     }
 
     pub fn all() -> &'static [TraversalKind] {
@@ -144,9 +148,34 @@ pub fn check(structure: StructureKind, traversal: TraversalKind) -> Result<()> {
     Ok(())
 }
 
+/// Limits of the layouts that have them.
+#[derive(Clone, Copy, Debug)]
+pub struct LayoutOptions {
+    /// Most address space the implicit layout may reserve, in bytes.
+    pub implicit_reservation_limit: u64,
+}
+
+impl Default for LayoutOptions {
+    fn default() -> Self {
+        LayoutOptions {
+            implicit_reservation_limit: DEFAULT_RESERVATION_LIMIT,
+        }
+    }
+}
+
 /// A structure, built and ready to trace.
 pub enum Built {
     Bvh(BinaryBvh),
+    StackOnSparse(OnSparse<StackOnSparse>),
+    Sparse(OnSparse<Sparse>),
+    Hapala(OnSparse<Hapala>),
+    Laine0(OnSparse<Laine<0>>),
+    Laine1(OnSparse<Laine<1>>),
+    Laine2(OnSparse<Laine<2>>),
+    Laine4(OnSparse<Laine<4>>),
+    Laine8(OnSparse<Laine<8>>),
+    ImplicitA(OnImplicit<ImplicitA>),
+    ImplicitB(OnImplicit<ImplicitB>),
     Brute(BruteForce),
 }
 
@@ -155,11 +184,20 @@ pub enum Built {
 pub struct StructureInfo {
     pub structure: StructureKind,
     pub traversal: Option<TraversalKind>,
+    /// The layout the traversal runs over: `binary` (52-byte inner nodes),
+    /// `sparse` or `implicit` (32-byte own-box nodes), or the structure's own.
+    pub layout: &'static str,
+    /// Node and index bytes in memory (for the implicit layout, the pages
+    /// that hold nodes).
     pub bytes: usize,
     pub node_bytes: usize,
     pub index_bytes: usize,
+    /// Address space reserved (implicit layout only).
+    pub reserved_bytes: Option<usize>,
     pub inner_nodes: usize,
     pub leaves: usize,
+    /// Per-ray traversal state, counted as the stackless paper's Figure 5.
+    pub state_bytes: Option<usize>,
     /// Time to derive it from the canonical BVH.
     pub conversion_seconds: f64,
 }
@@ -179,36 +217,72 @@ impl Built {
         bvh: &Bvh,
         triangles: Arc<[Triangle]>,
     ) -> Result<(Built, StructureInfo)> {
+        Self::with_options(
+            structure,
+            traversal,
+            bvh,
+            triangles,
+            &LayoutOptions::default(),
+        )
+    }
+
+    /// [`Built::new`] with explicit layout limits.
+    pub fn with_options(
+        structure: StructureKind,
+        traversal: TraversalKind,
+        bvh: &Bvh,
+        triangles: Arc<[Triangle]>,
+        opts: &LayoutOptions,
+    ) -> Result<(Built, StructureInfo)> {
         check(structure, traversal)?;
         let start = Instant::now();
-        let (built, mut info) = match structure {
-            StructureKind::Bvh => {
+        let inner = bvh.stats.inner_nodes;
+        let leaves = bvh.stats.leaves;
+        let info = |layout, node_bytes: usize, index_bytes: usize| StructureInfo {
+            structure,
+            traversal: (structure == StructureKind::Bvh).then_some(traversal),
+            layout,
+            bytes: node_bytes + index_bytes,
+            node_bytes,
+            index_bytes,
+            reserved_bytes: None,
+            inner_nodes: inner,
+            leaves,
+            state_bytes: (structure == StructureKind::Bvh).then(|| state_bytes(traversal)),
+            conversion_seconds: 0.0,
+        };
+        let (built, mut info) = match (structure, traversal) {
+            (StructureKind::Bvh, TraversalKind::Stack) => {
                 let b = BinaryBvh::from_bvh(bvh, triangles)?;
-                let info = StructureInfo {
-                    structure,
-                    traversal: Some(traversal),
-                    bytes: b.bytes(),
-                    node_bytes: b.node_bytes(),
-                    index_bytes: b.index_bytes(),
-                    inner_nodes: b.inner_nodes(),
-                    leaves: b.leaves(),
-                    conversion_seconds: 0.0,
-                };
-                (Built::Bvh(b), info)
+                let i = info("binary", b.node_bytes(), b.index_bytes());
+                (Built::Bvh(b), i)
             }
-            StructureKind::Brute => {
-                let b = BruteForce::new(triangles);
-                let info = StructureInfo {
-                    structure,
-                    traversal: None,
-                    bytes: b.bytes(),
-                    node_bytes: 0,
-                    index_bytes: b.bytes(),
-                    inner_nodes: 0,
-                    leaves: 1,
-                    conversion_seconds: 0.0,
+            (StructureKind::Bvh, TraversalKind::ImplicitA | TraversalKind::ImplicitB) => {
+                let im = Arc::new(ImplicitBvh::from_bvh(
+                    bvh,
+                    triangles,
+                    opts.implicit_reservation_limit,
+                )?);
+                let mut i = info("implicit", im.resident_bytes(), im.index_bytes());
+                i.reserved_bytes = Some(im.reserved_bytes());
+                let b = if traversal == TraversalKind::ImplicitA {
+                    Built::ImplicitA(OnImplicit::new(im))
+                } else {
+                    Built::ImplicitB(OnImplicit::new(im))
                 };
-                (Built::Brute(b), info)
+                (b, i)
+            }
+            (StructureKind::Bvh, t) => {
+                let sp = Arc::new(SparseBvh::from_bvh(bvh, triangles)?);
+                let i = info("sparse", sp.node_bytes(), sp.index_bytes());
+                (Built::sparse(t, sp)?, i)
+            }
+            (StructureKind::Brute, _) => {
+                let b = BruteForce::new(triangles);
+                let mut i = info("triangles", 0, b.bytes());
+                i.inner_nodes = 0;
+                i.leaves = 1;
+                (Built::Brute(b), i)
             }
             _ => unreachable!("availability checked above"),
         };
@@ -216,9 +290,41 @@ impl Built {
         Ok((built, info))
     }
 
+    /// Traversal `t` over an existing sparse layout; STACK means STACK over
+    /// the sparse layout here.
+    pub fn sparse(t: TraversalKind, sp: Arc<SparseBvh>) -> Result<Built> {
+        use TraversalKind::*;
+        Ok(match t {
+            Stack => Built::StackOnSparse(OnSparse::new(sp)?),
+            Sparse => Built::Sparse(OnSparse::new(sp)?),
+            Hapala => Built::Hapala(OnSparse::new(sp)?),
+            Laine0 => Built::Laine0(OnSparse::new(sp)?),
+            Laine1 => Built::Laine1(OnSparse::new(sp)?),
+            Laine2 => Built::Laine2(OnSparse::new(sp)?),
+            Laine4 => Built::Laine4(OnSparse::new(sp)?),
+            Laine8 => Built::Laine8(OnSparse::new(sp)?),
+            ImplicitA | ImplicitB => {
+                return Err(Error::Invalid(format!(
+                    "{} runs over the implicit layout",
+                    t.name()
+                )))
+            }
+        })
+    }
+
     pub fn with<W: WithAccel>(&self, w: W) -> W::Output {
         match self {
             Built::Bvh(a) => w.run(a),
+            Built::StackOnSparse(a) => w.run(a),
+            Built::Sparse(a) => w.run(a),
+            Built::Hapala(a) => w.run(a),
+            Built::Laine0(a) => w.run(a),
+            Built::Laine1(a) => w.run(a),
+            Built::Laine2(a) => w.run(a),
+            Built::Laine4(a) => w.run(a),
+            Built::Laine8(a) => w.run(a),
+            Built::ImplicitA(a) => w.run(a),
+            Built::ImplicitB(a) => w.run(a),
             Built::Brute(a) => w.run(a),
         }
     }

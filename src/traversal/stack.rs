@@ -2,17 +2,19 @@
 //! inner node both children's boxes are tested; the nearer hit child is
 //! visited next and the farther one pushed. The stack holds node references
 //! only: a popped node is always visited, even if its box now lies beyond
-//! the closest hit.
+//! the closest hit. Ties between the two children go to the left.
 
+use super::leaf::{intersect_leaf, test_children};
 use crate::accel::binary_bvh::{
     BinaryBvh, NodeRef, INNER_WORDS, LAST, LEFT_LEAF, OFFSET_MASK, RIGHT_LEAF,
 };
+use crate::accel::sparse_bvh::SparseBvh;
 use crate::geometry::{BoxRay, Hit, Ray};
 use crate::stats::{Stats, Tally};
 use crate::traversal::MAX_STACK_DEPTH;
 
 /// Closest hit (`ANY = false`) or any hit (`ANY = true`) over the
-/// uncompressed binary BVH. Ties between the two children go to the left.
+/// uncompressed binary BVH.
 #[inline]
 pub fn trace<S: Stats, const ANY: bool>(bvh: &BinaryBvh, ray: &Ray, stats: &mut S) -> Option<Hit> {
     if bvh.is_empty() {
@@ -40,25 +42,17 @@ pub fn trace<S: Stats, const ANY: bool>(bvh: &BinaryBvh, ray: &Ray, stats: &mut 
             stats.visit(bvh.canonical_id(node));
         }
         if node & LAST != 0 {
-            let mut i = words[(node & !LAST) as usize] as usize;
-            loop {
-                let entry = bvh.index[i];
-                let prim = entry & !LAST;
-                tally.triangles += 1;
-                if let Some(h) = bvh.triangles[prim as usize].hit(ray, tmin, tmax, prim) {
-                    if ANY {
-                        stats.add(tally);
-                        return Some(h);
-                    }
-                    if h.beats(&best) {
-                        tmax = h.t;
-                        best = Some(h);
-                    }
-                }
-                if entry & LAST != 0 {
-                    break;
-                }
-                i += 1;
+            let first = words[(node & !LAST) as usize];
+            if intersect_leaf::<ANY>(
+                &bvh.index,
+                &bvh.triangles,
+                first,
+                ray,
+                &mut tmax,
+                &mut best,
+                &mut tally,
+            ) {
+                break;
             }
         } else {
             let at = node as usize;
@@ -75,11 +69,9 @@ pub fn trace<S: Stats, const ANY: bool>(bvh: &BinaryBvh, ray: &Ray, stats: &mut 
                 INNER_WORDS as u32
             };
             let right = r | ((link & RIGHT_LEAF != 0) as u32) << 31;
-            let hit_l = tl != f32::INFINITY;
-            let hit_r = tr != f32::INFINITY;
+            let (hit_l, hit_r) = (tl != f32::INFINITY, tr != f32::INFINITY);
             if hit_l || hit_r {
-                let right_first = tr < tl;
-                let (near, far) = if right_first {
+                let (near, far) = if tr < tl {
                     (right, left)
                 } else {
                     (left, right)
@@ -93,10 +85,82 @@ pub fn trace<S: Stats, const ANY: bool>(bvh: &BinaryBvh, ray: &Ray, stats: &mut 
             }
         }
         if sp == 0 {
-            stats.add(tally);
-            return best;
+            break;
         }
         sp -= 1;
         node = stack[sp];
     }
+    stats.add(tally);
+    best
+}
+
+/// STACK over the sparse layout's own-box nodes: the same algorithm on the
+/// nodes the stackless traversals use, so that timing ratios compare
+/// algorithms, not layouts.
+#[inline]
+pub fn trace_sparse<S: Stats, const ANY: bool>(
+    sp_bvh: &SparseBvh,
+    ray: &Ray,
+    stats: &mut S,
+) -> Option<Hit> {
+    if sp_bvh.is_empty() {
+        return None;
+    }
+    let nodes = &sp_bvh.nodes[..];
+    let br = BoxRay::new(ray);
+    let tmin = ray.tmin;
+    let mut tmax = ray.tmax;
+    let mut tally = Tally {
+        planes: 6,
+        ..Tally::default()
+    };
+    if br.test(&nodes[0].bounds, tmin, tmax) == f32::INFINITY {
+        stats.add(tally);
+        return None;
+    }
+    let mut best: Option<Hit> = None;
+    let mut stack = [0u32; MAX_STACK_DEPTH];
+    let mut sp = 0;
+    let mut node = 0u32;
+    loop {
+        tally.nodes += 1;
+        if S::LOGS {
+            stats.visit(sp_bvh.ids[node as usize]);
+        }
+        let n = &nodes[node as usize];
+        if n.is_leaf() {
+            if intersect_leaf::<ANY>(
+                &sp_bvh.index,
+                &sp_bvh.triangles,
+                n.target(),
+                ray,
+                &mut tmax,
+                &mut best,
+                &mut tally,
+            ) {
+                break;
+            }
+        } else {
+            tally.planes += 12;
+            let l = n.target();
+            let [tl, tr] = test_children(&br, nodes, l as usize, tmin, tmax);
+            let (hit_l, hit_r) = (tl != f32::INFINITY, tr != f32::INFINITY);
+            if hit_l || hit_r {
+                let (near, far) = if tr < tl { (l + 1, l) } else { (l, l + 1) };
+                node = near;
+                if hit_l && hit_r {
+                    stack[sp] = far;
+                    sp += 1;
+                }
+                continue;
+            }
+        }
+        if sp == 0 {
+            break;
+        }
+        sp -= 1;
+        node = stack[sp];
+    }
+    stats.add(tally);
+    best
 }

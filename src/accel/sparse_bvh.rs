@@ -1,0 +1,182 @@
+//! The sparse layout of the stackless paper (its §3): 32-byte nodes with
+//! their own boxes and parent links, siblings adjacent, depth-first. The
+//! root is node 0; each sibling pair is placed together, the left child at
+//! an odd index, so `sibling(n) = n + 1` for odd `n` and `n - 1` for even.
+//!
+//! SPARSE, HAPALA, LAINE-k and (for fair timing ratios) STACK all run over
+//! this one layout: the paper gave every algorithm exactly the same BVH.
+
+use super::own_box_node::{OwnBoxNode, LEAF};
+use crate::bvh::{Bvh, NodeKind, ROOT};
+use crate::error::{Error, Result};
+use crate::geometry::{Aabb, Triangle};
+use std::sync::Arc;
+
+/// `extra` bits 0–29: the parent's index.
+pub const PARENT_MASK: u32 = (1 << 30) - 1;
+/// The root's parent field.
+pub const NO_PARENT: u32 = PARENT_MASK;
+
+#[derive(Clone, Debug)]
+pub struct SparseBvh {
+    pub(crate) nodes: Vec<OwnBoxNode>,
+    pub(crate) index: Vec<u32>,
+    pub(crate) triangles: Arc<[Triangle]>,
+    /// Canonical id of each node (read by visit logs only).
+    pub(crate) ids: Vec<u32>,
+    pub(crate) depth: u32,
+    inner_nodes: usize,
+}
+
+impl SparseBvh {
+    /// Lays out `bvh`. Refuses more than 2³⁰ − 1 nodes (the parent field).
+    pub fn from_bvh(bvh: &Bvh, triangles: Arc<[Triangle]>) -> Result<Self> {
+        if bvh.nodes.len() >= PARENT_MASK as usize {
+            return Err(Error::Limit(format!(
+                "{} BVH nodes exceed the sparse layout's 30-bit node indices ({} nodes)",
+                bvh.nodes.len(),
+                PARENT_MASK - 1
+            )));
+        }
+        let mut s = SparseBvh {
+            nodes: Vec::with_capacity(bvh.nodes.len()),
+            index: Vec::with_capacity(bvh.prims.len()),
+            triangles,
+            ids: Vec::with_capacity(bvh.nodes.len()),
+            depth: bvh.stats.depth,
+            inner_nodes: bvh.stats.inner_nodes,
+        };
+        s.push(bvh, ROOT, NO_PARENT);
+        s.fill(bvh, 0);
+        Ok(s)
+    }
+
+    fn push(&mut self, bvh: &Bvh, id: u32, parent: u32) -> u32 {
+        let n = &bvh.nodes[id as usize];
+        let axis = match n.kind {
+            NodeKind::Inner { axis, .. } => axis as u32,
+            NodeKind::Leaf { .. } => 0,
+        };
+        self.nodes.push(OwnBoxNode {
+            bounds: n.bounds.to_array(),
+            link: if n.is_leaf() { LEAF } else { 0 },
+            extra: parent | axis << 30,
+        });
+        self.ids.push(id);
+        self.nodes.len() as u32 - 1
+    }
+
+    /// Fills in node `at` (already pushed) and places its subtree.
+    fn fill(&mut self, bvh: &Bvh, at: u32) {
+        let id = self.ids[at as usize];
+        let node = &bvh.nodes[id as usize];
+        match node.kind {
+            NodeKind::Leaf { .. } => {
+                self.nodes[at as usize].link = LEAF | self.index.len() as u32;
+                self.index.extend_from_slice(bvh.leaf_prims(node));
+                if let Some(last) = self.index.last_mut() {
+                    *last |= LEAF;
+                }
+            }
+            NodeKind::Inner { left, right, .. } => {
+                let l = self.push(bvh, left, at);
+                let r = self.push(bvh, right, at);
+                debug_assert_eq!((l % 2, r), (1, l + 1));
+                self.nodes[at as usize].link = l;
+                self.fill(bvh, l);
+                self.fill(bvh, r);
+            }
+        }
+    }
+
+    pub fn bounds(&self) -> Aabb {
+        Aabb::from_array(&self.nodes[0].bounds)
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.index.is_empty()
+    }
+
+    pub fn node_count(&self) -> usize {
+        self.nodes.len()
+    }
+
+    pub fn inner_nodes(&self) -> usize {
+        self.inner_nodes
+    }
+
+    /// 32 bytes per node.
+    pub fn node_bytes(&self) -> usize {
+        self.nodes.len() * std::mem::size_of::<OwnBoxNode>()
+    }
+
+    pub fn index_bytes(&self) -> usize {
+        self.index.len() * 4
+    }
+
+    #[inline(always)]
+    pub(crate) fn parent(&self, n: u32) -> u32 {
+        self.nodes[n as usize].extra & PARENT_MASK
+    }
+
+    /// The axis the builder split node `n` on.
+    #[inline(always)]
+    pub(crate) fn axis(&self, n: u32) -> usize {
+        (self.nodes[n as usize].extra >> 30) as usize
+    }
+}
+
+/// The other child of `n`'s parent (`n` is not the root).
+#[inline(always)]
+pub fn sibling(n: u32) -> u32 {
+    if n & 1 == 1 {
+        n + 1
+    } else {
+        n - 1
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bvh::BuildOptions;
+    use crate::scene::Scene;
+
+    #[test]
+    fn nodes_match_the_canonical_tree() {
+        let scene = Scene::builtin("hairball:3000").unwrap();
+        let bvh = Bvh::build(&scene.triangles, &BuildOptions::sah());
+        let s = SparseBvh::from_bvh(&bvh, scene.triangles.clone()).unwrap();
+        assert_eq!(s.node_count(), bvh.nodes.len());
+        assert_eq!(s.node_bytes(), 32 * bvh.nodes.len());
+        for (i, n) in s.nodes.iter().enumerate() {
+            let c = &bvh.nodes[s.ids[i] as usize];
+            assert_eq!(Aabb::from_array(&n.bounds), c.bounds);
+            if i > 0 {
+                assert_eq!(s.ids[s.parent(i as u32) as usize], c.parent);
+                assert_eq!(sibling(sibling(i as u32)), i as u32);
+            }
+            match c.kind {
+                NodeKind::Inner { left, right, axis } => {
+                    assert!(!n.is_leaf());
+                    assert_eq!(s.ids[n.target() as usize], left);
+                    assert_eq!(s.ids[n.target() as usize + 1], right);
+                    assert_eq!(s.axis(i as u32), axis as usize);
+                }
+                NodeKind::Leaf { .. } => {
+                    assert!(n.is_leaf());
+                    let mut k = n.target() as usize;
+                    let mut prims = vec![];
+                    loop {
+                        prims.push(s.index[k] & !LEAF);
+                        if s.index[k] & LEAF != 0 {
+                            break;
+                        }
+                        k += 1;
+                    }
+                    assert_eq!(prims, bvh.leaf_prims(c));
+                }
+            }
+        }
+    }
+}

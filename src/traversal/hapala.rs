@@ -1,0 +1,122 @@
+//! HAPALA (Hapala, Davidovič, Wald, Havran and Slusallek 2011): stackless
+//! traversal over parent links. The near child is chosen by the sign of the
+//! ray direction on the node's split axis alone (left is the lower side),
+//! so that on the way back up the sibling to visit next is known without
+//! testing boxes again. Its visiting order differs from STACK's.
+
+use super::leaf::{intersect_leaf, LAST};
+use crate::accel::sparse_bvh::{sibling, SparseBvh};
+use crate::geometry::{BoxRay, Hit, Ray};
+use crate::stats::{Stats, Tally};
+
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum From {
+    /// `cur` is a near child, not yet tested.
+    Parent,
+    /// `cur` is a far child, not yet tested.
+    Sibling,
+    /// `cur`'s subtree is finished.
+    Child,
+}
+
+#[inline]
+pub fn hapala<S: Stats, const ANY: bool>(sp: &SparseBvh, ray: &Ray, stats: &mut S) -> Option<Hit> {
+    if sp.is_empty() {
+        return None;
+    }
+    let nodes = &sp.nodes[..];
+    let br = BoxRay::new(ray);
+    let d = ray.direction().to_array();
+    let tmin = ray.tmin;
+    let mut tmax = ray.tmax;
+    let mut tally = Tally {
+        planes: 6,
+        ..Tally::default()
+    };
+    let mut best = None;
+    // The near child: left if the direction is positive on the split axis
+    // (a zero component goes right, as in the reference code).
+    let near_child = |n: u32| {
+        let left = nodes[n as usize].target();
+        if d[sp.axis(n) & 3] > 0.0 {
+            left
+        } else {
+            left + 1
+        }
+    };
+    if br.test(&nodes[0].bounds, tmin, tmax) != f32::INFINITY {
+        tally.nodes += 1;
+        if S::LOGS {
+            stats.visit(sp.ids[0]);
+        }
+        if nodes[0].is_leaf() {
+            intersect_leaf::<ANY>(
+                &sp.index,
+                &sp.triangles,
+                nodes[0].target(),
+                ray,
+                &mut tmax,
+                &mut best,
+                &mut tally,
+            );
+        } else {
+            let mut cur = near_child(0);
+            let mut from = From::Parent;
+            loop {
+                if from == From::Child {
+                    if cur == 0 {
+                        break;
+                    }
+                    let p = sp.parent(cur);
+                    if cur == near_child(p) {
+                        cur = sibling(cur);
+                        from = From::Sibling;
+                    } else {
+                        cur = p;
+                    }
+                    continue;
+                }
+                // Arriving at an untested child: test its box now, with the
+                // ray as short as it has become.
+                let n = &nodes[cur as usize];
+                tally.planes += 6;
+                let hit = br.test(&n.bounds, tmin, tmax) != f32::INFINITY;
+                if hit && !n.is_leaf() {
+                    tally.nodes += 1;
+                    if S::LOGS {
+                        stats.visit(sp.ids[cur as usize]);
+                    }
+                    cur = near_child(cur);
+                    from = From::Parent;
+                    continue;
+                }
+                if hit {
+                    tally.nodes += 1;
+                    if S::LOGS {
+                        stats.visit(sp.ids[cur as usize]);
+                    }
+                    if intersect_leaf::<ANY>(
+                        &sp.index,
+                        &sp.triangles,
+                        n.link & !LAST,
+                        ray,
+                        &mut tmax,
+                        &mut best,
+                        &mut tally,
+                    ) {
+                        break;
+                    }
+                }
+                if from == From::Parent {
+                    cur = sibling(cur);
+                    from = From::Sibling;
+                } else {
+                    cur = sp.parent(cur);
+                    from = From::Child;
+                }
+            }
+        }
+    }
+    stats.add(tally);
+    best
+}

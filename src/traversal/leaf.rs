@@ -1,0 +1,62 @@
+//! What every BVH traversal does at a leaf and at an inner node of
+//! own-box nodes.
+
+use crate::accel::own_box_node::OwnBoxNode;
+use crate::geometry::{BoxRay, Hit, Ray, Triangle};
+use crate::stats::Tally;
+
+/// Index-list bit: the last triangle of a leaf.
+pub const LAST: u32 = 1 << 31;
+
+/// Tests the triangles of the leaf whose list starts at `first` against
+/// `[ray.tmin, *tmax]`. For closest hit (`ANY = false`) the nearest hit is
+/// kept in `best` and `tmax` shrinks to it; for any hit the first hit is
+/// stored and `true` returned, which ends the traversal.
+#[inline(always)]
+pub fn intersect_leaf<const ANY: bool>(
+    index: &[u32],
+    triangles: &[Triangle],
+    first: u32,
+    ray: &Ray,
+    tmax: &mut f32,
+    best: &mut Option<Hit>,
+    tally: &mut Tally,
+) -> bool {
+    let mut i = first as usize;
+    loop {
+        let entry = index[i];
+        let prim = entry & !LAST;
+        tally.triangles += 1;
+        if let Some(h) = triangles[prim as usize].hit(ray, ray.tmin, *tmax, prim) {
+            if ANY {
+                *best = Some(h);
+                return true;
+            }
+            if h.beats(best) {
+                *tmax = h.t;
+                *best = Some(h);
+            }
+        }
+        if entry & LAST != 0 {
+            return false;
+        }
+        i += 1;
+    }
+}
+
+/// Entry distances (`+inf` on a miss) of the sibling pair whose left node is
+/// `nodes[left]`.
+#[inline(always)]
+pub fn test_children(
+    br: &BoxRay,
+    nodes: &[OwnBoxNode],
+    left: usize,
+    tmin: f32,
+    tmax: f32,
+) -> [f32; 2] {
+    let pair: &[OwnBoxNode; 2] = nodes[left..left + 2].try_into().unwrap();
+    [
+        br.test(&pair[0].bounds, tmin, tmax),
+        br.test(&pair[1].bounds, tmin, tmax),
+    ]
+}
