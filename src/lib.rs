@@ -17,6 +17,7 @@
 //! ```
 
 pub mod accel;
+pub mod bench;
 pub mod bvh;
 pub mod error;
 pub mod geometry;

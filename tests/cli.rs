@@ -238,10 +238,22 @@ fn failures_are_one_clear_line_and_leave_no_output() {
         1,
         "not implemented yet",
     );
+    // A tree too deep for the implicit layout (the SAH build of a 1M-triangle
+    // hairball is not; this exercises the limit option instead).
     fails(
-        &["render", "-t", "implicit-a", "-o", "a.png"],
+        &[
+            "render",
+            "-s",
+            "chess:3000",
+            "-t",
+            "implicit-a",
+            "--implicit-limit",
+            "0.000001",
+            "-o",
+            "a.png",
+        ],
         1,
-        "not implemented yet",
+        "hybrid",
     );
     fails(
         &["render", "-a", "brute", "-t", "laine-2", "-o", "a.png"],
@@ -314,4 +326,54 @@ fn info_lists_the_structures() {
     let leaves = bvh["leaves"].as_u64().unwrap();
     assert_eq!(bvh["node_bytes"].as_u64().unwrap(), 52 * inner + 4 * leaves);
     assert_eq!(json["bvh"]["nodes"].as_u64().unwrap(), inner + leaves);
+}
+
+#[test]
+fn bench_stackless_reports_every_algorithm() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = ok(&raytree(
+        &[
+            "bench",
+            "stackless",
+            "-s",
+            "chess:3000",
+            "-s",
+            "hairball:2000",
+            "--threads",
+            "1,2",
+            "-q",
+            "--json",
+            "b.json",
+            "--charts",
+            "charts",
+        ],
+        dir.path(),
+    ));
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("b.json")).unwrap()).unwrap();
+    let scenes = json.as_array().unwrap();
+    assert_eq!(scenes.len(), 2);
+    for scene in scenes {
+        let rows = scene["rows"].as_array().unwrap();
+        assert_eq!(rows.len(), 2 * raytree::bench::stackless::ROWS.len());
+        for row in rows {
+            let name = row["algorithm"].as_str().unwrap();
+            assert!(
+                out.contains(&format!("| {name} |")),
+                "{name} missing from the table"
+            );
+            assert!(row["seconds"].as_f64().unwrap() > 0.0);
+            assert!(row["ratio"].as_f64().unwrap().is_finite());
+            assert_eq!(row["same_image"], true, "{name} renders another image");
+            assert!(row["state_bytes"].as_u64().unwrap() > 0);
+        }
+    }
+    for t in [1, 2] {
+        let svg = std::fs::read_to_string(
+            dir.path()
+                .join(format!("charts/stackless-chess-3000-{t}t.svg")),
+        )
+        .unwrap();
+        assert!(svg.contains("implicit-b") && svg.contains("laine-8"));
+    }
 }

@@ -2,7 +2,7 @@
 
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use raytree::accel::{Built, StructureInfo, StructureKind, TraversalKind};
+use raytree::accel::{Built, LayoutOptions, StructureInfo, StructureKind, TraversalKind};
 use raytree::bvh::{BuildOptions, BuildStats, Builder, Bvh};
 use raytree::error::Result;
 use raytree::prelude::Vec3;
@@ -72,9 +72,22 @@ pub struct StructureArgs {
     /// Acceleration structure.
     #[arg(long, short = 'a', value_enum, default_value_t = StructureKind::Bvh)]
     pub accel: StructureKind,
-    /// Traversal algorithm (for --accel bvh).
+    /// Traversal algorithm (for --accel bvh). implicit-a and implicit-b run
+    /// over the implicit heap layout; sparse, hapala and laine-k over the
+    /// sparse layout with parent links; stack over the 52-byte binary layout.
     #[arg(long, short = 't', value_enum, default_value_t = TraversalKind::Stack)]
     pub traversal: TraversalKind,
+    /// Most address space the implicit layout may reserve, in GiB (its gaps
+    /// are reserved, not resident).
+    #[arg(long, default_value_t = 64.0, value_parser = parse_gib)]
+    pub implicit_limit: f64,
+}
+
+fn parse_gib(s: &str) -> std::result::Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v > 0.0 && v.is_finite() => Ok(v),
+        _ => Err(format!("'{s}' is not a positive number of GiB")),
+    }
 }
 
 #[derive(Serialize)]
@@ -132,7 +145,10 @@ pub fn build_structure(
     bvh: &Bvh,
     s: &StructureArgs,
 ) -> Result<(Built, StructureInfo)> {
-    Built::new(s.accel, s.traversal, bvh, scene.triangles.clone())
+    let opts = LayoutOptions {
+        implicit_reservation_limit: (s.implicit_limit * (1u64 << 30) as f64) as u64,
+    };
+    Built::with_options(s.accel, s.traversal, bvh, scene.triangles.clone(), &opts)
 }
 
 /// A progress bar on stderr, drawn only when stderr is a terminal.

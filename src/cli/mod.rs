@@ -1,6 +1,7 @@
 //! Command-line front end. Failures print one line on stderr and exit 1;
 //! usage errors exit 2 (clap's convention).
 
+mod bench;
 mod common;
 mod info;
 mod render;
@@ -26,6 +27,9 @@ enum Command {
     Trace(trace::TraceArgs),
     /// Describe a scene, its BVH and every available structure.
     Info(info::InfoArgs),
+    /// Reproduce the papers' measurements.
+    #[command(subcommand)]
+    Bench(bench::BenchCommand),
 }
 
 pub fn main() -> ExitCode {
@@ -34,6 +38,7 @@ pub fn main() -> ExitCode {
         Command::Render(a) => render::run(a),
         Command::Trace(a) => trace::run(a),
         Command::Info(a) => info::run(a),
+        Command::Bench(c) => bench::run(c),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

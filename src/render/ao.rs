@@ -9,6 +9,7 @@ use super::{Ctx, RaySink};
 use crate::accel::Accel;
 use crate::geometry::Ray;
 use crate::rng::Pcg32;
+use glam::Vec3;
 
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct AoSettings {
@@ -39,38 +40,73 @@ impl AoSettings {
     pub const RADIUS_FRACTION: f32 = 0.045;
 }
 
+/// An eye ray's outcome: where occlusion rays start (the offset hit point
+/// and the normal facing the eye), and the sample's random stream, which the
+/// occlusion rays go on drawing from.
+pub(super) struct EyeSample {
+    pub hit: Option<(Vec3, Vec3)>,
+    pub rng: Pcg32,
+}
+
+/// Traces eye ray `sample` of pixel (`x`, `y`).
+#[inline]
+pub(super) fn eye_sample<A: Accel, S: RaySink>(
+    accel: &A,
+    ctx: &Ctx,
+    x: usize,
+    y: usize,
+    sample: u32,
+    stats: &mut S,
+) -> EyeSample {
+    let pixel = (y * ctx.width + x) as u64;
+    let mut rng = Pcg32::new(pixel, sample as u64);
+    let ray = eye_ray(ctx.scene, x, y, ctx.width, ctx.height, &mut rng);
+    stats.ray();
+    let hit = accel.closest_hit(&ray, stats).map(|hit| {
+        let n = facing_normal(ctx.scene, &ray, &hit);
+        (offset_origin(ray.at(hit.t), n), n)
+    });
+    EyeSample { hit, rng }
+}
+
+/// The sample's value: the unoccluded fraction of its AO rays, or the
+/// background for a missed eye ray.
+#[inline]
+pub(super) fn ao_value<A: Accel, S: RaySink>(
+    accel: &A,
+    s: &AoSettings,
+    e: &mut EyeSample,
+    stats: &mut S,
+) -> f32 {
+    let Some((origin, n)) = e.hit else {
+        return s.background;
+    };
+    let mut open = 0u32;
+    for _ in 0..s.ao_rays {
+        let d = cosine_hemisphere(n, &mut e.rng);
+        stats.ray();
+        if accel
+            .any_hit(&Ray::new(origin, d, 0.0, s.radius), stats)
+            .is_none()
+        {
+            open += 1;
+        }
+    }
+    open as f32 / s.ao_rays.max(1) as f32
+}
+
 pub(super) fn pixel<A: Accel, S: RaySink>(
     accel: &A,
     ctx: &Ctx,
     s: &AoSettings,
     x: usize,
     y: usize,
-    pixel: u64,
     stats: &mut S,
 ) -> f32 {
     let mut sum = 0.0;
     for sample in 0..s.eye_rays {
-        let mut rng = Pcg32::new(pixel, sample as u64);
-        let ray = eye_ray(ctx.scene, x, y, ctx.width, ctx.height, &mut rng);
-        stats.ray();
-        let Some(hit) = accel.closest_hit(&ray, stats) else {
-            sum += s.background;
-            continue;
-        };
-        let n = facing_normal(ctx.scene, &ray, &hit);
-        let origin = offset_origin(ray.at(hit.t), n);
-        let mut open = 0u32;
-        for _ in 0..s.ao_rays {
-            let d = cosine_hemisphere(n, &mut rng);
-            stats.ray();
-            if accel
-                .any_hit(&Ray::new(origin, d, 0.0, s.radius), stats)
-                .is_none()
-            {
-                open += 1;
-            }
-        }
-        sum += open as f32 / s.ao_rays.max(1) as f32;
+        let mut e = eye_sample(accel, ctx, x, y, sample, stats);
+        sum += ao_value(accel, s, &mut e, stats);
     }
     sum / s.eye_rays.max(1) as f32
 }

@@ -5,6 +5,7 @@
 //! pixel and sample index, so an image is bit-identical for any thread count.
 
 mod ao;
+mod ao_phased;
 mod image;
 mod path;
 pub mod rayset;
@@ -12,6 +13,7 @@ mod sampling;
 
 pub use self::image::{write_atomically, Image};
 pub use ao::AoSettings;
+pub use ao_phased::{render_ao_phased, Phase, PhasedAo};
 pub use path::PathSettings;
 
 use crate::accel::Accel;
@@ -122,10 +124,9 @@ fn render_tile<A: Accel, S: RaySink>(
     let mut out = Vec::with_capacity(TILE * TILE);
     for y in ty * TILE..((ty + 1) * TILE).min(ctx.height) {
         for x in tx * TILE..((tx + 1) * TILE).min(ctx.width) {
-            let pixel = (y * ctx.width + x) as u64;
             out.push(match integrator {
-                Integrator::Ao(s) => ao::pixel(accel, ctx, s, x, y, pixel, stats),
-                Integrator::Path(s) => path::pixel(accel, ctx, s, x, y, pixel, stats),
+                Integrator::Ao(s) => ao::pixel(accel, ctx, s, x, y, stats),
+                Integrator::Path(s) => path::pixel(accel, ctx, s, x, y, stats),
             });
         }
     }

@@ -35,9 +35,9 @@ pub(super) fn pixel<A: Accel, S: RaySink>(
     s: &PathSettings,
     x: usize,
     y: usize,
-    pixel: u64,
     stats: &mut S,
 ) -> f32 {
+    let pixel = (y * ctx.width + x) as u64;
     let mut sum = 0.0;
     for sample in 0..s.samples {
         let mut rng = Pcg32::new(pixel, sample as u64);

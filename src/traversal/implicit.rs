@@ -61,17 +61,19 @@ pub fn implicit_a<S: Stats, const ANY: bool>(
                 tally.planes += 12;
                 let [tl, tr] = test_children(&br, slots, 2 * node as usize + 2, tmin, tmax);
                 let (hit_l, hit_r) = (tl != f32::INFINITY, tr != f32::INFINITY);
-                if hit_l || hit_r {
+                if hit_l && hit_r {
                     level_start <<= 1;
                     level_index <<= 1;
-                    swap_mask <<= 1;
-                    if tr < tl {
-                        swap_mask |= 1;
-                    }
-                    if !(hit_l && hit_r) {
-                        level_index += 1;
-                        swap_mask ^= 1;
-                    }
+                    swap_mask = swap_mask << 1 | (tr < tl) as u32;
+                    continue;
+                }
+                if hit_l || hit_r {
+                    // One child rejected: levelIndex moves past it, and the
+                    // swap bit (right-first, then flipped) ends up set when
+                    // the left child is the one taken.
+                    level_start <<= 1;
+                    level_index = (level_index << 1) + 1;
+                    swap_mask = swap_mask << 1 | hit_l as u32;
                     continue;
                 }
             }
@@ -136,15 +138,14 @@ pub fn implicit_b<S: Stats, const ANY: bool>(
                 tally.planes += 12;
                 let [tl, tr] = test_children(&br, slots, 2 * index as usize, tmin, tmax);
                 let (hit_l, hit_r) = (tl != f32::INFINITY, tr != f32::INFINITY);
-                if hit_l || hit_r {
-                    index <<= 1;
+                if hit_l && hit_r {
+                    index = index << 1 | (tr < tl) as u32;
                     level_index <<= 1;
-                    if tr < tl {
-                        index += 1;
-                    }
-                    if !(hit_l && hit_r) {
-                        level_index += 1;
-                    }
+                    continue;
+                }
+                if hit_l || hit_r {
+                    index = index << 1 | hit_r as u32;
+                    level_index = (level_index << 1) + 1;
                     continue;
                 }
             }

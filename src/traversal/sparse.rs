@@ -48,12 +48,15 @@ pub fn sparse<S: Stats, const ANY: bool>(sp: &SparseBvh, ray: &Ray, stats: &mut 
                 let l = n.target();
                 let [tl, tr] = test_children(&br, nodes, l as usize, tmin, tmax);
                 let (hit_l, hit_r) = (tl != f32::INFINITY, tr != f32::INFINITY);
-                if hit_l || hit_r {
+                if hit_l && hit_r {
                     level_index <<= 1;
                     node = if tr < tl { l + 1 } else { l };
-                    if !(hit_l && hit_r) {
-                        level_index += 1;
-                    }
+                    continue;
+                }
+                if hit_l || hit_r {
+                    // One child rejected: its slot counts as done.
+                    level_index = (level_index << 1) + 1;
+                    node = if hit_l { l } else { l + 1 };
                     continue;
                 }
             }

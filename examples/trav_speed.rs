@@ -1,0 +1,68 @@
+use raytree::accel::{Built, SparseBvh, StructureKind, TraversalKind, WithAccel};
+use raytree::prelude::*;
+use raytree::render::rayset;
+use std::sync::Arc;
+use std::time::Instant;
+
+struct Time<'a>(&'a [Ray], bool);
+impl WithAccel for Time<'_> {
+    type Output = (f64, usize);
+    fn run<A: Accel>(self, a: &A) -> (f64, usize) {
+        let t = Instant::now();
+        let mut n = 0;
+        for _ in 0..3 {
+            for r in self.0 {
+                let h = if self.1 {
+                    a.any_hit(r, &mut NoStats)
+                } else {
+                    a.closest_hit(r, &mut NoStats)
+                };
+                n += h.is_some() as usize;
+            }
+        }
+        (t.elapsed().as_secs_f64(), n)
+    }
+}
+
+fn main() {
+    let spec = std::env::args().nth(1).unwrap_or("chess".into());
+    let scene = Scene::builtin(&spec).unwrap();
+    let bvh = Bvh::build(&scene.triangles, &BuildOptions::hybrid());
+    let b = BinaryBvh::from_bvh(&bvh, scene.triangles.clone()).unwrap();
+    let eye = rayset::eye_rays(&scene, 400, 150, 1);
+    let ao = rayset::ao_rays(
+        &scene,
+        &b,
+        &eye,
+        8,
+        0.045 * scene.mesh.bounds().extent().length(),
+    );
+    let sp = Arc::new(SparseBvh::from_bvh(&bvh, scene.triangles.clone()).unwrap());
+    let only = std::env::args().nth(2);
+    for (name, t, s) in [
+        ("stack", TraversalKind::Stack, false),
+        ("stack-sparse", TraversalKind::Stack, true),
+        ("sparse", TraversalKind::Sparse, true),
+        ("implicit-b", TraversalKind::ImplicitB, false),
+        ("laine-8", TraversalKind::Laine8, true),
+        ("hapala", TraversalKind::Hapala, true),
+    ] {
+        if only.as_deref().is_some_and(|o| o != name) {
+            continue;
+        }
+        let built = if s {
+            Built::sparse(t, sp.clone()).unwrap()
+        } else {
+            Built::new(StructureKind::Bvh, t, &bvh, scene.triangles.clone())
+                .unwrap()
+                .0
+        };
+        let (te, _) = built.with(Time(&eye, false));
+        let (ta, _) = built.with(Time(&ao, true));
+        let (tc, _) = built.with(Time(&ao, false));
+        println!(
+            "{name:14} eye {:.3}  ao-any {:.3}  ao-closest {:.3}",
+            te, ta, tc
+        );
+    }
+}

@@ -1,0 +1,5 @@
+//! Reproductions of the papers' measurements, shared by the CLI's `bench`
+//! command and the tests.
+
+pub mod stackless;
+pub mod svg;

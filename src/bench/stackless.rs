@@ -1,0 +1,238 @@
+//! The stackless paper's Table 1 and Figure 5: AO rendering time of every
+//! traversal over one BVH (the paper's hybrid build), eye and AO phases
+//! timed apart, with the per-ray work and the traversal state size.
+//!
+//! Every algorithm renders the same image from the same BVH in one run, so
+//! the ratios compare algorithms under the same conditions. STACK runs twice:
+//! over the uncompressed 52-byte layout (`stack`) and over the 32-byte
+//! own-box nodes the stackless algorithms use (`stack-sparse`), which is the
+//! reference of the ratios: the paper gave every algorithm the same nodes.
+
+use crate::accel::{Built, SparseBvh, StructureKind, TraversalKind, WithAccel};
+use crate::bvh::{BuildOptions, BuildStats, Bvh};
+use crate::error::Result;
+use crate::render::{render_ao_phased, AoSettings, Phase, PhasedAo};
+use crate::scene::Scene;
+use crate::stats::PerRay;
+use crate::traversal::state_bytes;
+use serde::Serialize;
+use std::sync::Arc;
+
+/// The image sizes and ray counts of a run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum Preset {
+    /// 200×75 (chess) or 128×128, 4 eye rays per pixel, 4 AO rays per hit.
+    Quick,
+    /// The paper's: 800×300 (chess) or 512×512, 16 eye rays per pixel and 16
+    /// AO rays per hit (256 per pixel).
+    Paper,
+}
+
+impl Preset {
+    /// Image size for a scene: the chess scene has the paper's 8:3 frame.
+    pub fn size(self, scene: &Scene) -> (usize, usize) {
+        let chess = scene.name.starts_with("chess");
+        match (self, chess) {
+            (Preset::Quick, true) => (200, 75),
+            (Preset::Quick, false) => (128, 128),
+            (Preset::Paper, true) => (800, 300),
+            (Preset::Paper, false) => (512, 512),
+        }
+    }
+
+    pub fn rays(self) -> (u32, u32) {
+        match self {
+            Preset::Quick => (4, 4),
+            Preset::Paper => (16, 16),
+        }
+    }
+}
+
+/// The rows of Table 1, in the paper's order, plus STACK on the sparse nodes.
+pub const ROWS: [(&str, TraversalKind, bool); 11] = [
+    ("stack", TraversalKind::Stack, false),
+    ("stack-sparse", TraversalKind::Stack, true),
+    ("sparse", TraversalKind::Sparse, true),
+    ("implicit-a", TraversalKind::ImplicitA, false),
+    ("implicit-b", TraversalKind::ImplicitB, false),
+    ("hapala", TraversalKind::Hapala, true),
+    ("laine-0", TraversalKind::Laine0, true),
+    ("laine-1", TraversalKind::Laine1, true),
+    ("laine-2", TraversalKind::Laine2, true),
+    ("laine-4", TraversalKind::Laine4, true),
+    ("laine-8", TraversalKind::Laine8, true),
+];
+
+/// The row the ratios are taken to.
+pub const REFERENCE: &str = "stack-sparse";
+
+#[derive(Clone, Debug, Serialize)]
+pub struct Row {
+    pub algorithm: &'static str,
+    pub layout: &'static str,
+    pub state_bytes: usize,
+    pub threads: usize,
+    /// Eye plus AO phase, the best of the repeats.
+    pub seconds: f64,
+    /// `seconds` over the reference row's, same scene and thread count.
+    pub ratio: f64,
+    pub eye: Phase,
+    pub ao: Phase,
+    pub eye_per_ray: PerRay,
+    pub ao_per_ray: PerRay,
+    /// Whether the image equals the reference row's bit for bit.
+    pub same_image: bool,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct SceneResult {
+    pub scene: String,
+    pub triangles: usize,
+    pub bvh: BuildStats,
+    pub width: usize,
+    pub height: usize,
+    pub ao: AoSettings,
+    pub rows: Vec<Row>,
+}
+
+pub struct Options {
+    pub preset: Preset,
+    pub build: BuildOptions,
+    /// Thread counts to measure (each in its own pool).
+    pub threads: Vec<usize>,
+    /// Each measurement is repeated; the fastest counts.
+    pub repeats: usize,
+    /// AO radius as a fraction of the scene diagonal (32 units on chess).
+    pub radius_fraction: f32,
+}
+
+struct Phased<'a> {
+    scene: &'a Scene,
+    ao: &'a AoSettings,
+    size: (usize, usize),
+}
+
+impl WithAccel for Phased<'_> {
+    type Output = PhasedAo;
+    fn run<A: crate::accel::Accel>(self, a: &A) -> PhasedAo {
+        render_ao_phased(a, self.scene, self.ao, self.size.0, self.size.1)
+    }
+}
+
+/// Measures every row on `scene`; `tick` is called after each render.
+pub fn run_scene(scene: &Scene, opts: &Options, tick: &dyn Fn()) -> Result<SceneResult> {
+    let bvh = Bvh::build(&scene.triangles, &opts.build);
+    let (w, h) = opts.preset.size(scene);
+    let (eye_rays, ao_rays) = opts.preset.rays();
+    let ao = AoSettings {
+        eye_rays,
+        ao_rays,
+        radius: opts.radius_fraction * scene.mesh.bounds().extent().length(),
+        background: 1.0,
+    };
+    let sparse = Arc::new(SparseBvh::from_bvh(&bvh, scene.triangles.clone())?);
+    let mut built = Vec::new();
+    for (name, t, on_sparse) in ROWS {
+        let (b, info) = if on_sparse {
+            (Built::sparse(t, sparse.clone())?, "sparse")
+        } else {
+            let (b, i) = Built::new(StructureKind::Bvh, t, &bvh, scene.triangles.clone())?;
+            (b, i.layout)
+        };
+        built.push((name, t, b, info));
+    }
+    let mut rows = Vec::new();
+    for &threads in &opts.threads {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .map_err(|e| {
+                crate::error::Error::Invalid(format!("cannot start {threads} threads: {e}"))
+            })?;
+        let mut images = Vec::new();
+        for (name, t, b, layout) in &built {
+            let mut best: Option<PhasedAo> = None;
+            for _ in 0..opts.repeats.max(1) {
+                let r = pool.install(|| {
+                    b.with(Phased {
+                        scene,
+                        ao: &ao,
+                        size: (w, h),
+                    })
+                });
+                tick();
+                let total = |p: &PhasedAo| p.eye.seconds + p.ao.seconds;
+                if best.as_ref().is_none_or(|b| total(&r) < total(b)) {
+                    best = Some(r);
+                }
+            }
+            let r = best.expect("at least one repeat");
+            rows.push(Row {
+                algorithm: name,
+                layout,
+                state_bytes: state_bytes(*t),
+                threads,
+                seconds: r.eye.seconds + r.ao.seconds,
+                ratio: 0.0,
+                eye: r.eye,
+                ao: r.ao,
+                eye_per_ray: r.eye.counters.per_ray(),
+                ao_per_ray: r.ao.counters.per_ray(),
+                same_image: false,
+            });
+            images.push(r.image);
+        }
+        let first = rows.len() - built.len();
+        let reference = ROWS
+            .iter()
+            .position(|r| r.0 == REFERENCE)
+            .expect("reference row");
+        let ref_seconds = rows[first + reference].seconds;
+        for (k, row) in rows[first..].iter_mut().enumerate() {
+            row.ratio = row.seconds / ref_seconds;
+            row.same_image = images[k] == images[reference];
+        }
+    }
+    Ok(SceneResult {
+        scene: scene.name.clone(),
+        triangles: scene.mesh.triangle_count(),
+        bvh: bvh.stats.clone(),
+        width: w,
+        height: h,
+        ao,
+        rows,
+    })
+}
+
+/// The Markdown table of one scene.
+pub fn markdown(r: &SceneResult) -> String {
+    let mut s = format!(
+        "### {} ({} triangles; {} BVH, depth {}, {} nodes; {}×{}, {} eye rays/pixel, {} AO rays/hit, radius {:.3})\n\n",
+        r.scene, r.triangles, r.bvh.builder, r.bvh.depth, r.bvh.nodes, r.width, r.height, r.ao.eye_rays, r.ao.ao_rays, r.ao.radius
+    );
+    s += "| algorithm | layout | state B | threads | time s | ratio | eye s | AO s | eye Mrays/s | AO Mrays/s | nodes/ray eye | nodes/ray AO | box tests/ray AO | tris/ray AO | same image |\n";
+    s += "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|\n";
+    for row in &r.rows {
+        let mrays = |p: &Phase| p.counters.rays as f64 / p.seconds.max(1e-12) / 1e6;
+        s += &format!(
+            "| {} | {} | {} | {} | {:.3} | {:.2} | {:.3} | {:.3} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {} |\n",
+            row.algorithm,
+            row.layout,
+            row.state_bytes,
+            row.threads,
+            row.seconds,
+            row.ratio,
+            row.eye.seconds,
+            row.ao.seconds,
+            mrays(&row.eye),
+            mrays(&row.ao),
+            row.eye_per_ray.nodes,
+            row.ao_per_ray.nodes,
+            row.ao_per_ray.planes / 6.0,
+            row.ao_per_ray.triangles,
+            if row.same_image { "yes" } else { "NO" }
+        );
+    }
+    s
+}

@@ -1,0 +1,150 @@
+//! `raytree bench`: the papers' measurements.
+
+use super::common::{self, BuilderArg};
+use clap::{Args, Subcommand};
+use raytree::bench::stackless::{self, Preset};
+use raytree::bench::svg::{stacked_bars, Bar};
+use raytree::bvh::{BuildOptions, Builder};
+use raytree::error::Result;
+use raytree::render::AoSettings;
+use raytree::scene::Scene;
+use std::path::PathBuf;
+
+#[derive(Subcommand, Debug)]
+pub enum BenchCommand {
+    /// The stackless paper's Table 1 and Figure 5: AO render time of every
+    /// traversal (eye and AO phases), ratios to STACK, per-ray work, state sizes.
+    Stackless(StacklessArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct StacklessArgs {
+    /// Scenes, repeatable: built-in names or OBJ/PLY files
+    /// [default: chess and hairball; with --preset paper, hairball:2.8M as in the paper].
+    #[arg(long = "scene", short = 's')]
+    scenes: Vec<String>,
+    /// quick: small images, 4 eye rays per pixel and 4 AO rays per hit;
+    /// paper: 800×300 (chess) or 512×512, 16 eye rays per pixel, 16 AO rays per hit.
+    #[arg(long, value_enum, default_value_t = Preset::Quick)]
+    preset: Preset,
+    /// BVH builder [default: the paper's hybrid, SAH for 8 levels then median].
+    #[arg(long, value_enum, default_value_t = BuilderArg::Hybrid)]
+    builder: BuilderArg,
+    /// Most triangles in a BVH leaf.
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u16).range(1..=255))]
+    max_leaf: u16,
+    /// Thread counts to measure, comma-separated [default: 1 and all cores].
+    #[arg(long, value_delimiter = ',', value_parser = clap::value_parser!(u32).range(1..=1024))]
+    threads: Vec<u32>,
+    /// Renders per measurement; the fastest counts.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=100))]
+    repeats: u32,
+    /// Also write the results as JSON to this file.
+    #[arg(long)]
+    json: Option<PathBuf>,
+    /// Write one SVG bar chart (eye and AO time per algorithm, like Figure 5)
+    /// per scene and thread count into this directory.
+    #[arg(long)]
+    charts: Option<PathBuf>,
+    /// No progress bar.
+    #[arg(long, short = 'q')]
+    quiet: bool,
+}
+
+pub fn run(cmd: BenchCommand) -> Result<()> {
+    match cmd {
+        BenchCommand::Stackless(a) => run_stackless(a),
+    }
+}
+
+fn run_stackless(a: StacklessArgs) -> Result<()> {
+    let scenes = if a.scenes.is_empty() {
+        match a.preset {
+            Preset::Quick => vec!["chess".to_owned(), "hairball".to_owned()],
+            Preset::Paper => vec!["chess".to_owned(), "hairball:2.8M".to_owned()],
+        }
+    } else {
+        a.scenes.clone()
+    };
+    let threads: Vec<usize> = if a.threads.is_empty() {
+        let all = rayon::current_num_threads();
+        if all > 1 {
+            vec![1, all]
+        } else {
+            vec![1]
+        }
+    } else {
+        a.threads.iter().map(|&t| t as usize).collect()
+    };
+    let builder = match a.builder {
+        BuilderArg::Sah => Builder::Sah,
+        BuilderArg::Hybrid => Builder::Hybrid,
+    };
+    let opts = stackless::Options {
+        preset: a.preset,
+        build: BuildOptions::new(builder).with_max_leaf_size(a.max_leaf as usize),
+        threads: threads.clone(),
+        repeats: a.repeats as usize,
+        radius_fraction: AoSettings::RADIUS_FRACTION,
+    };
+    let renders = scenes.len() * threads.len() * stackless::ROWS.len() * a.repeats as usize;
+    let bar = common::progress(renders as u64, "bench stackless", a.quiet);
+    let mut results = Vec::new();
+    for spec in &scenes {
+        bar.set_message(format!("bench stackless: {spec}"));
+        let scene = Scene::from_spec(spec)?;
+        let r = stackless::run_scene(&scene, &opts, &|| bar.inc(1))?;
+        bar.suspend(|| println!("{}", stackless::markdown(&r)));
+        if let Some(dir) = &a.charts {
+            write_charts(dir, &r)?;
+        }
+        results.push(r);
+    }
+    bar.finish_and_clear();
+    println!(
+        "ratio: time over {}'s (STACK on the same 32-byte nodes), same scene and threads; state B counts 4 bytes per 32-bit state variable (8 per 64-bit), a stack adds its head and 4 bytes per entry.",
+        stackless::REFERENCE
+    );
+    if let Some(p) = &a.json {
+        common::write_json(p, &results)?;
+    }
+    Ok(())
+}
+
+fn write_charts(dir: &std::path::Path, r: &stackless::SceneResult) -> Result<()> {
+    std::fs::create_dir_all(dir).map_err(|source| raytree::error::Error::Io {
+        path: dir.into(),
+        source,
+    })?;
+    let mut threads: Vec<usize> = r.rows.iter().map(|row| row.threads).collect();
+    threads.dedup();
+    for t in threads {
+        let bars: Vec<Bar> = r
+            .rows
+            .iter()
+            .filter(|row| row.threads == t)
+            .map(|row| Bar {
+                label: row.algorithm.to_owned(),
+                segments: vec![row.eye.seconds, row.ao.seconds],
+                note: format!("×{:.2}  {} B state", row.ratio, row.state_bytes),
+            })
+            .collect();
+        let svg = stacked_bars(
+            &format!("{}: AO render time, {} thread(s)", r.scene, t),
+            &["eye rays", "AO rays"],
+            "s",
+            &bars,
+        );
+        let name: String = r
+            .scene
+            .chars()
+            .map(|c| if c.is_ascii_alphanumeric() { c } else { '-' })
+            .collect();
+        let path = dir.join(format!("stackless-{name}-{t}t.svg"));
+        raytree::render::write_atomically(&path, |w| {
+            use std::io::Write;
+            w.write_all(svg.as_bytes())
+        })?;
+    }
+    Ok(())
+}

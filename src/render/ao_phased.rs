@@ -1,0 +1,137 @@
+//! AO in two phases, as the stackless paper's tracer measures it: every eye
+//! ray first (closest hit), then every AO ray (any hit), each phase timed and
+//! counted on its own. The image equals [`super::render`]'s AO image bit for
+//! bit: the same samples, random streams and sums.
+
+use super::ao::{ao_value, eye_sample, EyeSample};
+use super::{AoSettings, Ctx, Image};
+use crate::accel::Accel;
+use crate::scene::Scene;
+use crate::stats::Counters;
+use rayon::prelude::*;
+use serde::Serialize;
+use std::time::Instant;
+
+/// One phase's time and work.
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct Phase {
+    pub seconds: f64,
+    pub counters: Counters,
+}
+
+#[derive(Clone, Debug)]
+pub struct PhasedAo {
+    pub image: Image,
+    pub eye: Phase,
+    pub ao: Phase,
+}
+
+/// Rows are handed out in chunks of this many pixels.
+const CHUNK: usize = 256;
+
+pub fn render_ao_phased<A: Accel>(
+    accel: &A,
+    scene: &Scene,
+    s: &AoSettings,
+    width: usize,
+    height: usize,
+) -> PhasedAo {
+    let ctx = Ctx {
+        scene,
+        width,
+        height,
+    };
+    let n = s.eye_rays as usize;
+    let pixels: Vec<usize> = (0..width * height).collect();
+
+    let start = Instant::now();
+    let eye: Vec<(Vec<EyeSample>, Counters)> = pixels
+        .par_chunks(CHUNK)
+        .map(|chunk| {
+            let mut c = Counters::default();
+            let mut samples = Vec::with_capacity(chunk.len() * n);
+            for &p in chunk {
+                for sample in 0..s.eye_rays {
+                    samples.push(eye_sample(
+                        accel,
+                        &ctx,
+                        p % width,
+                        p / width,
+                        sample,
+                        &mut c,
+                    ));
+                }
+            }
+            (samples, c)
+        })
+        .collect();
+    let eye_phase = Phase {
+        seconds: start.elapsed().as_secs_f64(),
+        counters: sum(eye.iter().map(|e| e.1)),
+    };
+
+    let start = Instant::now();
+    let ao: Vec<(Vec<f32>, Counters)> = eye
+        .into_par_iter()
+        .map(|(mut samples, _)| {
+            let mut c = Counters::default();
+            let values = samples
+                .chunks_mut(n.max(1))
+                .map(|pixel| {
+                    let mut v = 0.0;
+                    for e in pixel {
+                        v += ao_value(accel, s, e, &mut c);
+                    }
+                    v / s.eye_rays.max(1) as f32
+                })
+                .collect();
+            (values, c)
+        })
+        .collect();
+    let ao_phase = Phase {
+        seconds: start.elapsed().as_secs_f64(),
+        counters: sum(ao.iter().map(|a| a.1)),
+    };
+    let mut image = Image::new(width, height);
+    image.pixels = ao.into_iter().flat_map(|a| a.0).collect();
+    PhasedAo {
+        image,
+        eye: eye_phase,
+        ao: ao_phase,
+    }
+}
+
+fn sum(it: impl Iterator<Item = Counters>) -> Counters {
+    it.fold(Counters::default(), |mut a, b| {
+        a += b;
+        a
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::BinaryBvh;
+    use crate::bvh::{BuildOptions, Bvh};
+    use crate::render::{render, Integrator};
+
+    #[test]
+    fn phased_image_equals_the_interleaved_render() {
+        let scene = Scene::builtin("chess:3000").unwrap();
+        let bvh = Bvh::build(&scene.triangles, &BuildOptions::sah());
+        let b = BinaryBvh::from_bvh(&bvh, scene.triangles.clone()).unwrap();
+        let s = AoSettings {
+            eye_rays: 3,
+            ao_rays: 5,
+            radius: 30.0,
+            background: 1.0,
+        };
+        let phased = render_ao_phased(&b, &scene, &s, 41, 17);
+        let plain = render(&b, &scene, &Integrator::Ao(s.clone()), 41, 17, &|_| {});
+        assert_eq!(phased.image, plain.image);
+        let mut total = phased.eye.counters;
+        total += phased.ao.counters;
+        assert_eq!(total, plain.counters);
+        assert_eq!(phased.eye.counters.rays, 41 * 17 * 3);
+    }
+}
