@@ -3,6 +3,7 @@
 mod common;
 
 use rayon::prelude::*;
+use raytree::accel::DualSplitTree;
 use raytree::prelude::*;
 
 /// Closest hits must be identical (same t, triangle and barycentrics: the

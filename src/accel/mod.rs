@@ -4,6 +4,7 @@
 
 pub(crate) mod binary_bvh;
 mod brute;
+pub mod dst;
 pub mod implicit_bvh;
 pub(crate) mod own_box_node;
 mod select;
@@ -11,6 +12,7 @@ pub mod sparse_bvh;
 
 pub use binary_bvh::BinaryBvh;
 pub use brute::BruteForce;
+pub use dst::DualSplitTree;
 pub use implicit_bvh::ImplicitBvh;
 pub use select::{
     check, Built, LayoutOptions, StructureInfo, StructureKind, TraversalKind, WithAccel,

@@ -2,8 +2,9 @@
 //! and the benchmarks spell them, and the dispatch from a name to a
 //! monomorphized trace.
 
+use super::dst::DstStats;
 use super::implicit_bvh::DEFAULT_RESERVATION_LIMIT;
-use super::{Accel, BinaryBvh, BruteForce, ImplicitBvh, SparseBvh};
+use super::{Accel, BinaryBvh, BruteForce, DualSplitTree, ImplicitBvh, SparseBvh};
 use crate::bvh::Bvh;
 use crate::error::{Error, Result};
 use crate::geometry::Triangle;
@@ -86,7 +87,13 @@ impl StructureKind {
 
     /// Whether this build of raytree has the structure.
     pub fn is_available(self) -> bool {
-        matches!(self, StructureKind::Bvh | StructureKind::Brute)
+        matches!(
+            self,
+            StructureKind::Bvh
+                | StructureKind::Dst
+                | StructureKind::DstSimilar
+                | StructureKind::Brute
+        )
     }
 
     pub fn all() -> &'static [StructureKind] {
@@ -176,6 +183,7 @@ pub enum Built {
     Laine8(OnSparse<Laine<8>>),
     ImplicitA(OnImplicit<ImplicitA>),
     ImplicitB(OnImplicit<ImplicitB>),
+    Dst(DualSplitTree),
     Brute(BruteForce),
 }
 
@@ -200,6 +208,8 @@ pub struct StructureInfo {
     pub state_bytes: Option<usize>,
     /// Time to derive it from the canonical BVH.
     pub conversion_seconds: f64,
+    /// Node kinds and carving levels of a dual-split tree.
+    pub dst: Option<DstStats>,
 }
 
 /// A computation over any structure: [`Built::with`] calls `run` with the
@@ -250,6 +260,7 @@ impl Built {
             leaves,
             state_bytes: (structure == StructureKind::Bvh).then(|| state_bytes(traversal)),
             conversion_seconds: 0.0,
+            dst: None,
         };
         let (built, mut info) = match (structure, traversal) {
             (StructureKind::Bvh, TraversalKind::Stack) => {
@@ -276,6 +287,16 @@ impl Built {
                 let sp = Arc::new(SparseBvh::from_bvh(bvh, triangles)?);
                 let i = info("sparse", sp.node_bytes(), sp.index_bytes());
                 (Built::sparse(t, sp)?, i)
+            }
+            (StructureKind::Dst | StructureKind::DstSimilar, _) => {
+                let similar = structure == StructureKind::DstSimilar;
+                let t = DualSplitTree::from_bvh(bvh, triangles, similar)?;
+                let mut i = info("dual-split", t.stats.node_bytes, t.stats.index_bytes);
+                i.inner_nodes = t.stats.split_nodes + t.stats.carve_single + t.stats.carve_dual
+                    - t.stats.carving_leaves;
+                i.leaves = t.stats.leaves();
+                i.dst = Some(t.stats.clone());
+                (Built::Dst(t), i)
             }
             (StructureKind::Brute, _) => {
                 let b = BruteForce::new(triangles);
@@ -325,6 +346,7 @@ impl Built {
             Built::Laine8(a) => w.run(a),
             Built::ImplicitA(a) => w.run(a),
             Built::ImplicitB(a) => w.run(a),
+            Built::Dst(a) => w.run(a),
             Built::Brute(a) => w.run(a),
         }
     }

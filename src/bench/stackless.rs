@@ -105,6 +105,8 @@ pub struct Options {
     pub repeats: usize,
     /// AO radius as a fraction of the scene diagonal (32 units on chess).
     pub radius_fraction: f32,
+    /// An AO radius in scene units, overriding the fraction.
+    pub radius: Option<f32>,
 }
 
 struct Phased<'a> {
@@ -128,7 +130,9 @@ pub fn run_scene(scene: &Scene, opts: &Options, tick: &dyn Fn()) -> Result<Scene
     let ao = AoSettings {
         eye_rays,
         ao_rays,
-        radius: opts.radius_fraction * scene.mesh.bounds().extent().length(),
+        radius: opts
+            .radius
+            .unwrap_or(opts.radius_fraction * scene.mesh.bounds().extent().length()),
         background: 1.0,
     };
     let sparse = Arc::new(SparseBvh::from_bvh(&bvh, scene.triangles.clone())?);

@@ -6,6 +6,7 @@ use raytree::bench::stackless::{self, Preset};
 use raytree::bench::svg::{stacked_bars, Bar};
 use raytree::bvh::{BuildOptions, Builder};
 use raytree::error::Result;
+use raytree::prelude::Vec3;
 use raytree::render::AoSettings;
 use raytree::scene::Scene;
 use std::path::PathBuf;
@@ -49,6 +50,18 @@ pub struct StacklessArgs {
     /// No progress bar.
     #[arg(long, short = 'q')]
     quiet: bool,
+    /// Camera position "x,y,z" for every scene [default: each scene's own].
+    #[arg(long, value_parser = common::parse_vec3)]
+    eye: Option<Vec3>,
+    /// Point the camera looks at, "x,y,z".
+    #[arg(long, value_parser = common::parse_vec3)]
+    look_at: Option<Vec3>,
+    /// Vertical field of view in degrees.
+    #[arg(long, value_parser = common::parse_fov)]
+    fov: Option<f32>,
+    /// AO ray length in scene units [default: 0.045 × each scene's diagonal].
+    #[arg(long)]
+    ao_radius: Option<f32>,
 }
 
 pub fn run(cmd: BenchCommand) -> Result<()> {
@@ -86,13 +99,25 @@ fn run_stackless(a: StacklessArgs) -> Result<()> {
         threads: threads.clone(),
         repeats: a.repeats as usize,
         radius_fraction: AoSettings::RADIUS_FRACTION,
+        radius: a.ao_radius,
     };
+    if let Some(r) = a.ao_radius {
+        if !(r.is_finite() && r > 0.0) {
+            return Err(raytree::error::Error::Invalid(format!(
+                "--ao-radius {r}: must be a positive number"
+            )));
+        }
+    }
     let renders = scenes.len() * threads.len() * stackless::ROWS.len() * a.repeats as usize;
     let bar = common::progress(renders as u64, "bench stackless", a.quiet);
     let mut results = Vec::new();
     for spec in &scenes {
         bar.set_message(format!("bench stackless: {spec}"));
-        let scene = Scene::from_spec(spec)?;
+        let mut scene = Scene::from_spec(spec)?;
+        let cam = &mut scene.camera;
+        cam.eye = a.eye.unwrap_or(cam.eye);
+        cam.target = a.look_at.unwrap_or(cam.target);
+        cam.fov_y = a.fov.unwrap_or(cam.fov_y);
         let r = stackless::run_scene(&scene, &opts, &|| bar.inc(1))?;
         bar.suspend(|| println!("{}", stackless::markdown(&r)));
         if let Some(dir) = &a.charts {

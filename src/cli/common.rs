@@ -36,7 +36,7 @@ pub struct SceneArgs {
     pub fov: Option<f32>,
 }
 
-fn parse_vec3(s: &str) -> std::result::Result<Vec3, String> {
+pub fn parse_vec3(s: &str) -> std::result::Result<Vec3, String> {
     let v: Vec<f32> = s
         .split(',')
         .map(|c| c.trim().parse::<f32>().map_err(|e| format!("'{c}': {e}")))
@@ -49,7 +49,7 @@ fn parse_vec3(s: &str) -> std::result::Result<Vec3, String> {
     }
 }
 
-fn parse_fov(s: &str) -> std::result::Result<f32, String> {
+pub fn parse_fov(s: &str) -> std::result::Result<f32, String> {
     let f: f32 = s.parse().map_err(|e| format!("{e}"))?;
     if f > 0.0 && f < 180.0 {
         Ok(f)

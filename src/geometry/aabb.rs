@@ -167,6 +167,17 @@ impl BoxRay {
     /// compute `tnear > tfar` and lose the hit the watertight test found.
     #[inline(always)]
     pub fn test(&self, b: &[f32; 6], tmin: f32, tmax: f32) -> f32 {
+        let (tn, tf) = self.interval(b, tmin, tmax);
+        if tn <= tf {
+            tn
+        } else {
+            f32::INFINITY
+        }
+    }
+
+    /// The interval `(tnear, tfar)` of [`Self::test`]: a hit iff `tnear <= tfar`.
+    #[inline(always)]
+    pub fn interval(&self, b: &[f32; 6], tmin: f32, tmax: f32) -> (f32, f32) {
         let mut tn = tmin;
         let mut tf = f32::INFINITY;
         for a in 0..3 {
@@ -177,12 +188,7 @@ impl BoxRay {
             tf = if f < tf { f } else { tf };
         }
         tf += tf.abs() * ROBUST_WIDENING;
-        tf = if tmax < tf { tmax } else { tf };
-        if tn <= tf {
-            tn
-        } else {
-            f32::INFINITY
-        }
+        (tn, if tmax < tf { tmax } else { tf })
     }
 
     /// [`Self::test`] for two boxes at once, stored per axis as

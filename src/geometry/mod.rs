@@ -1,6 +1,6 @@
 //! Rays, boxes and the watertight ray-triangle test.
 
-mod aabb;
+pub(crate) mod aabb;
 mod ray;
 mod triangle;
 

@@ -1,0 +1,242 @@
+//! The dual-split tree's node encoding (Lin et al. 2019, §4.1): a 32-bit
+//! word with a 6-bit header (bits 26–31) and a 26-bit offset (bits 0–25);
+//! nodes with planes add two f32 plane positions (12 bytes in all), plain
+//! leaves are the word alone (4 bytes).
+//!
+//! Header bits, b5 (bit 31) down to b0 (bit 26):
+//!
+//! | node | b5 | b4 | b3 b2 | b1 b0 |
+//! |---|---|---|---|---|
+//! | splitting | 0 | 0 | axis (00 x, 01 y, 10 z) | size of the first child in words (01 or 11) |
+//! | single-axis carving | 0 | 1 | leaf, 0 | axis |
+//! | plain leaf | 0 | 1 | 1, 1 | unused |
+//! | dual-axis carving | 1 | leaf | axes (00 xy, 01 xz, 11 yz) | corner |
+//!
+//! The corner of a dual-axis node says which side each plane bounds: bit 0
+//! for the first axis, bit 1 for the second; 0 means the plane is the
+//! minimum of the non-empty region (empty below it), 1 its maximum (empty
+//! above). The offset of an inner node is the word distance from the node
+//! to its first child (children follow their parent); the offset of a leaf
+//! is the position of its first triangle in the index list.
+
+use crate::error::{Error, Result};
+
+/// Bits of the offset field.
+pub const OFFSET_BITS: u32 = 26;
+pub const OFFSET_MASK: u32 = (1 << OFFSET_BITS) - 1;
+
+/// A decoded node.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum DstNode {
+    /// Two planes on `axis`: the first child's maximum and the second
+    /// child's minimum. `first_words` is the first child's size (1 or 3).
+    Split {
+        axis: u8,
+        planes: [f32; 2],
+        first_words: u8,
+        offset: u32,
+    },
+    /// The non-empty region is `planes[0] ..= planes[1]` on `axis`.
+    CarveSingle {
+        axis: u8,
+        planes: [f32; 2],
+        leaf: bool,
+        offset: u32,
+    },
+    /// Plane `k` bounds axis `axes[k]`, as its minimum (`max_side[k] =
+    /// false`) or maximum.
+    CarveDual {
+        axes: [u8; 2],
+        max_side: [bool; 2],
+        planes: [f32; 2],
+        leaf: bool,
+        offset: u32,
+    },
+    /// Triangles from `offset` in the index list.
+    Leaf { offset: u32 },
+}
+
+/// The paper's codes of the dual-axis pairs.
+pub const PAIRS: [([u8; 2], u32); 3] = [([0, 1], 0b00), ([0, 2], 0b01), ([1, 2], 0b11)];
+
+impl DstNode {
+    /// Words this node takes: 1 for a plain leaf, 3 otherwise.
+    pub fn words(&self) -> usize {
+        match self {
+            DstNode::Leaf { .. } => 1,
+            _ => 3,
+        }
+    }
+
+    pub fn is_leaf(&self) -> bool {
+        match *self {
+            DstNode::Leaf { .. } => true,
+            DstNode::CarveSingle { leaf, .. } | DstNode::CarveDual { leaf, .. } => leaf,
+            DstNode::Split { .. } => false,
+        }
+    }
+
+    /// Appends the node's words. An offset that does not fit 26 bits is an
+    /// error naming the limit.
+    pub fn encode(&self, out: &mut Vec<u32>) -> Result<()> {
+        let (header, offset, planes) = match *self {
+            DstNode::Split {
+                axis,
+                planes,
+                first_words,
+                offset,
+            } => {
+                debug_assert!(axis < 3 && (first_words == 1 || first_words == 3));
+                (
+                    (axis as u32) << 2 | first_words as u32,
+                    offset,
+                    Some(planes),
+                )
+            }
+            DstNode::CarveSingle {
+                axis,
+                planes,
+                leaf,
+                offset,
+            } => (
+                0b01_0000 | (leaf as u32) << 3 | axis as u32,
+                offset,
+                Some(planes),
+            ),
+            DstNode::CarveDual {
+                axes,
+                max_side,
+                planes,
+                leaf,
+                offset,
+            } => {
+                let code = PAIRS
+                    .iter()
+                    .find(|p| p.0 == axes)
+                    .map(|p| p.1)
+                    .expect("axes are one of xy, xz, yz");
+                let corner = max_side[0] as u32 | (max_side[1] as u32) << 1;
+                (
+                    0b10_0000 | (leaf as u32) << 4 | code << 2 | corner,
+                    offset,
+                    Some(planes),
+                )
+            }
+            DstNode::Leaf { offset } => (0b01_1100, offset, None),
+        };
+        if offset > OFFSET_MASK {
+            return Err(Error::Limit(format!(
+                "dual-split tree offset {offset} does not fit the node's {OFFSET_BITS}-bit offset field (at most {OFFSET_MASK}); the tree or its triangle index list is too large for this encoding"
+            )));
+        }
+        out.push(header << OFFSET_BITS | offset);
+        if let Some([a, b]) = planes {
+            out.push(a.to_bits());
+            out.push(b.to_bits());
+        }
+        Ok(())
+    }
+
+    /// Decodes the node whose header word is `words[0]`.
+    #[inline(always)]
+    pub fn decode(words: &[u32]) -> DstNode {
+        let w = words[0];
+        let h = w >> OFFSET_BITS;
+        let offset = w & OFFSET_MASK;
+        let planes = || [f32::from_bits(words[1]), f32::from_bits(words[2])];
+        if h & 0b10_0000 != 0 {
+            let code = (h >> 2) & 0b11;
+            let axes = PAIRS.iter().find(|p| p.1 == code).map_or([1, 2], |p| p.0);
+            DstNode::CarveDual {
+                axes,
+                max_side: [h & 1 != 0, h & 2 != 0],
+                planes: planes(),
+                leaf: h & 0b1_0000 != 0,
+                offset,
+            }
+        } else if h & 0b1_0000 == 0 {
+            DstNode::Split {
+                axis: ((h >> 2) & 0b11) as u8,
+                planes: planes(),
+                first_words: (h & 0b11) as u8,
+                offset,
+            }
+        } else if h & 0b100 != 0 {
+            DstNode::Leaf { offset }
+        } else {
+            DstNode::CarveSingle {
+                axis: (h & 0b11) as u8,
+                planes: planes(),
+                leaf: h & 0b1000 != 0,
+                offset,
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_kind_round_trips_bit_for_bit() {
+        let mut nodes = vec![DstNode::Leaf { offset: 12345 }];
+        for axis in 0..3 {
+            for first_words in [1, 3] {
+                nodes.push(DstNode::Split {
+                    axis,
+                    planes: [1.5, -2.0],
+                    first_words,
+                    offset: 7,
+                });
+            }
+            for leaf in [false, true] {
+                nodes.push(DstNode::CarveSingle {
+                    axis,
+                    planes: [-0.0, f32::MAX],
+                    leaf,
+                    offset: OFFSET_MASK,
+                });
+            }
+        }
+        for (axes, _) in PAIRS {
+            for corner in 0..4 {
+                for leaf in [false, true] {
+                    nodes.push(DstNode::CarveDual {
+                        axes,
+                        max_side: [corner & 1 != 0, corner & 2 != 0],
+                        planes: [3.0, 4.0],
+                        leaf,
+                        offset: 99,
+                    });
+                }
+            }
+        }
+        // 3 split axes × 2 sizes, 3 × 2 single, 12 × 2 dual, a leaf.
+        assert_eq!(nodes.len(), 1 + 6 + 6 + 24);
+        let mut words = Vec::new();
+        for n in &nodes {
+            n.encode(&mut words).unwrap();
+        }
+        let mut at = 0;
+        for n in &nodes {
+            let d = DstNode::decode(&words[at..]);
+            assert_eq!(&d, n);
+            at += d.words();
+        }
+        assert_eq!(at, words.len());
+        // Exactly the documented headers.
+        assert_eq!(words[0] >> OFFSET_BITS, 0b01_1100);
+    }
+
+    #[test]
+    fn offsets_beyond_26_bits_are_refused() {
+        let mut w = Vec::new();
+        let e = DstNode::Leaf { offset: 1 << 26 }
+            .encode(&mut w)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("26-bit"), "{e}");
+        assert!(w.is_empty());
+    }
+}

@@ -1,0 +1,278 @@
+//! Choosing the carving nodes under a splitting node's child by the SAH of
+//! the paper's equation 1:
+//!
+//! `C = Σ_{j=1..ℓ} (S_{j-1}/S)·C_j + (S_ℓ/S)·C_I·T`
+//!
+//! where `S` is the splitting node's area, `S_0` the child's region right
+//! after the split, `S_j` the region after `j` carving nodes, `C_j = σ·C_I`
+//! (σ = 0.3 single-axis, 0.5 dual-axis), `C_I = 1`, and `T` the child's
+//! triangle count. Every sequence of up to three carving nodes is tried.
+
+use crate::geometry::Aabb;
+
+/// Relative cost of a single-axis carving node.
+pub const SIGMA_SINGLE: f32 = 0.3;
+/// Relative cost of a dual-axis carving node.
+pub const SIGMA_DUAL: f32 = 0.5;
+/// At most this many carving levels follow a splitting node.
+pub const MAX_LEVELS: usize = 3;
+
+/// One plane a child's region must lose to match its box: axis, whether it
+/// bounds the region from above, and its position.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Plane {
+    pub axis: u8,
+    pub max_side: bool,
+    pub at: f32,
+}
+
+/// A carving node to place.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum CarveOp {
+    /// The region becomes `lo ..= hi` on `axis`.
+    Single { axis: u8, lo: f32, hi: f32 },
+    /// Two planes on two different axes (`a.axis < b.axis`).
+    Dual { a: Plane, b: Plane },
+}
+
+impl CarveOp {
+    pub fn apply(&self, cell: &Aabb) -> Aabb {
+        let mut c = *cell;
+        let mut cut = |p: &Plane| {
+            if p.max_side {
+                c.max[p.axis as usize] = p.at;
+            } else {
+                c.min[p.axis as usize] = p.at;
+            }
+        };
+        match self {
+            CarveOp::Single { axis, lo, hi } => {
+                cut(&Plane {
+                    axis: *axis,
+                    max_side: false,
+                    at: *lo,
+                });
+                cut(&Plane {
+                    axis: *axis,
+                    max_side: true,
+                    at: *hi,
+                });
+            }
+            CarveOp::Dual { a, b } => {
+                cut(a);
+                cut(b);
+            }
+        }
+        c
+    }
+
+    pub fn sigma(&self) -> f32 {
+        match self {
+            CarveOp::Single { .. } => SIGMA_SINGLE,
+            CarveOp::Dual { .. } => SIGMA_DUAL,
+        }
+    }
+}
+
+/// The planes by which `cell` (which contains `target`) is larger.
+pub fn excess_planes(cell: &Aabb, target: &Aabb) -> Vec<Plane> {
+    let mut v = Vec::new();
+    for a in 0..3 {
+        if cell.min[a] < target.min[a] {
+            v.push(Plane {
+                axis: a as u8,
+                max_side: false,
+                at: target.min[a],
+            });
+        }
+        if cell.max[a] > target.max[a] {
+            v.push(Plane {
+                axis: a as u8,
+                max_side: true,
+                at: target.max[a],
+            });
+        }
+    }
+    v
+}
+
+/// The chosen carving nodes, their cost and the region they leave.
+#[derive(Clone, Debug)]
+pub struct Plan {
+    pub ops: Vec<CarveOp>,
+    pub cost: f32,
+    pub cell: Aabb,
+}
+
+/// The cheapest carving under a child whose region is `cell` and whose
+/// content is bounded by `target`, with `triangles` triangles, below a
+/// splitting node of area `parent_area`. With `complete`, every excess plane
+/// must be carved (identical partitioning); otherwise SAH may leave planes
+/// for deeper levels (the similar conversion). Ties keep fewer nodes, then
+/// the first sequence found (single-axis before dual, lower axes first).
+pub fn best_plan(
+    cell: &Aabb,
+    target: &Aabb,
+    triangles: u32,
+    parent_area: f32,
+    complete: bool,
+) -> Plan {
+    let planes = excess_planes(cell, target);
+    let inv = if parent_area > 0.0 {
+        1.0 / parent_area
+    } else {
+        0.0
+    };
+    let mut best: Option<Plan> = None;
+    let mut ops = Vec::with_capacity(MAX_LEVELS);
+    search(
+        &planes,
+        (1u32 << planes.len()) - 1,
+        *cell,
+        0.0,
+        triangles as f32,
+        inv,
+        complete,
+        &mut ops,
+        &mut best,
+    );
+    best.expect("the empty or complete plan always exists")
+}
+
+#[allow(clippy::too_many_arguments)]
+fn search(
+    planes: &[Plane],
+    left: u32,
+    cell: Aabb,
+    cost: f32,
+    tris: f32,
+    inv: f32,
+    complete: bool,
+    ops: &mut Vec<CarveOp>,
+    best: &mut Option<Plan>,
+) {
+    if left == 0 || !complete {
+        let total = cost + cell.area() * inv * tris;
+        let better = match best {
+            None => true,
+            Some(b) => total < b.cost || (total == b.cost && ops.len() < b.ops.len()),
+        };
+        if (left == 0 || !complete) && better {
+            *best = Some(Plan {
+                ops: ops.clone(),
+                cost: total,
+                cell,
+            });
+        }
+    }
+    if left == 0 || ops.len() == MAX_LEVELS {
+        return;
+    }
+    let node_cost = cell.area() * inv;
+    // Single-axis: every remaining plane on one axis.
+    for axis in 0..3u8 {
+        let on_axis: u32 = (0..planes.len())
+            .filter(|&i| left >> i & 1 == 1 && planes[i].axis == axis)
+            .fold(0, |m, i| m | 1 << i);
+        if on_axis == 0 {
+            continue;
+        }
+        let (mut lo, mut hi) = (cell.min[axis as usize], cell.max[axis as usize]);
+        for (i, p) in planes.iter().enumerate() {
+            if on_axis >> i & 1 == 1 {
+                if p.max_side {
+                    hi = p.at;
+                } else {
+                    lo = p.at;
+                }
+            }
+        }
+        let op = CarveOp::Single { axis, lo, hi };
+        ops.push(op);
+        search(
+            planes,
+            left & !on_axis,
+            op.apply(&cell),
+            cost + node_cost * SIGMA_SINGLE,
+            tris,
+            inv,
+            complete,
+            ops,
+            best,
+        );
+        ops.pop();
+    }
+    // Dual-axis: two remaining planes on different axes.
+    for i in 0..planes.len() {
+        for j in i + 1..planes.len() {
+            if left >> i & 1 == 0 || left >> j & 1 == 0 || planes[i].axis == planes[j].axis {
+                continue;
+            }
+            let op = CarveOp::Dual {
+                a: planes[i],
+                b: planes[j],
+            };
+            ops.push(op);
+            search(
+                planes,
+                left & !(1 << i | 1 << j),
+                op.apply(&cell),
+                cost + node_cost * SIGMA_DUAL,
+                tris,
+                inv,
+                complete,
+                ops,
+                best,
+            );
+            ops.pop();
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+
+    #[test]
+    fn complete_plans_reach_the_target_within_three_levels() {
+        let cell = Aabb::new(Vec3::ZERO, Vec3::splat(10.0));
+        // Five excess planes (one side already shared, as after a split).
+        let target = Aabb::new(Vec3::new(0.0, 1.0, 2.0), Vec3::new(9.0, 8.0, 7.0));
+        let p = best_plan(&cell, &target, 4, cell.area(), true);
+        assert_eq!(p.cell, target);
+        assert!(p.ops.len() <= 3);
+        let mut c = cell;
+        for op in &p.ops {
+            c = op.apply(&c);
+        }
+        assert_eq!(c, target);
+    }
+
+    #[test]
+    fn nothing_to_carve_costs_the_leaf_only() {
+        let b = Aabb::new(Vec3::ZERO, Vec3::ONE);
+        let p = best_plan(&b, &b, 3, b.area() * 2.0, true);
+        assert!(p.ops.is_empty());
+        assert!((p.cost - 1.5).abs() < 1e-6);
+    }
+
+    #[test]
+    fn one_plane_per_axis_on_two_axes_prefers_a_dual_node() {
+        let cell = Aabb::new(Vec3::ZERO, Vec3::splat(10.0));
+        let target = Aabb::new(Vec3::new(2.0, 0.0, 0.0), Vec3::new(10.0, 7.0, 10.0));
+        let p = best_plan(&cell, &target, 100, cell.area(), true);
+        assert_eq!(p.ops.len(), 1);
+        assert!(matches!(p.ops[0], CarveOp::Dual { .. }));
+    }
+
+    #[test]
+    fn similar_plans_may_skip_a_sliver() {
+        let cell = Aabb::new(Vec3::ZERO, Vec3::splat(10.0));
+        let target = Aabb::new(Vec3::new(0.001, 0.0, 0.0), Vec3::splat(10.0));
+        let p = best_plan(&cell, &target, 1, cell.area(), false);
+        assert!(p.ops.is_empty(), "{:?}", p.ops);
+        assert_eq!(p.cell, cell);
+        assert_eq!(best_plan(&cell, &target, 1, cell.area(), true).ops.len(), 1);
+    }
+}

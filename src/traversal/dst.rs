@@ -1,0 +1,192 @@
+//! Dual-split tree traversal (Lin et al. 2019, §3.4, Algorithm 1): kd-tree
+//! like, over the ray interval `[tmin, tmax]`. A splitting node narrows the
+//! interval to the nearer child and pushes the farther with its interval; a
+//! carving node trims the interval to its non-empty region; popped entries
+//! are culled against the closest hit. Because regions may overlap, the
+//! traversal runs until the stack is empty.
+//!
+//! Plane distances are widened by `2γ₃` of themselves, entries down and
+//! exits up, as the box test's exits are: a hit on a region's boundary is
+//! never lost to rounding.
+
+use super::leaf::intersect_leaf;
+use super::MAX_STACK_DEPTH;
+use crate::accel::dst::node::DstNode;
+use crate::accel::dst::DualSplitTree;
+use crate::geometry::aabb::ROBUST_WIDENING;
+use crate::geometry::{BoxRay, Hit, Ray};
+use crate::stats::{Stats, Tally};
+
+#[inline(always)]
+fn entry(t: f32) -> f32 {
+    t - t.abs() * ROBUST_WIDENING
+}
+
+#[inline(always)]
+fn exit(t: f32) -> f32 {
+    t + t.abs() * ROBUST_WIDENING
+}
+
+/// `max(t, acc)` keeping `acc` when `t` is NaN (a ray in the plane).
+#[inline(always)]
+fn raise(acc: f32, t: f32) -> f32 {
+    if t > acc {
+        t
+    } else {
+        acc
+    }
+}
+
+/// `min(t, acc)` keeping `acc` when `t` is NaN.
+#[inline(always)]
+fn lower(acc: f32, t: f32) -> f32 {
+    if t < acc {
+        t
+    } else {
+        acc
+    }
+}
+
+#[inline]
+pub fn trace<S: Stats, const ANY: bool>(
+    dst: &DualSplitTree,
+    ray: &Ray,
+    stats: &mut S,
+) -> Option<Hit> {
+    if dst.is_empty() {
+        return None;
+    }
+    let br = BoxRay::new(ray);
+    let mut tally = Tally {
+        planes: 6,
+        ..Tally::default()
+    };
+    let (tn, tf) = br.interval(&dst.root_bounds.to_array(), ray.tmin, ray.tmax);
+    if !(tn <= tf) {
+        stats.add(tally);
+        return None;
+    }
+    let words = &dst.words[..];
+    let (o, inv, neg) = (br.org, br.inv, br.neg);
+    let mut best: Option<Hit> = None;
+    let mut best_t = ray.tmax;
+    let mut stack = [(0u32, 0f32, 0f32); MAX_STACK_DEPTH];
+    let mut sp = 0;
+    let (mut node, mut tmin, mut tmax) = (0usize, tn, tf);
+    'outer: loop {
+        tally.nodes += 1;
+        if S::LOGS {
+            stats.visit(node as u32);
+        }
+        let descend = match DstNode::decode(&words[node..]) {
+            DstNode::Split {
+                axis,
+                planes,
+                first_words,
+                offset,
+            } => {
+                tally.planes += 2;
+                let a = axis as usize & 3;
+                let first = node + offset as usize;
+                let second = first + first_words as usize;
+                let t1 = (planes[0] - o[a]) * inv[a];
+                let t2 = (planes[1] - o[a]) * inv[a];
+                // Along +axis the first child (below plane 0) comes first
+                // and ends at t1; the second begins at t2. Reversed otherwise.
+                let (near, t_near_exit, far, t_far_entry) = if neg[a] {
+                    (second, exit(t2), first, entry(t1))
+                } else {
+                    (first, exit(t1), second, entry(t2))
+                };
+                let hit_near = !(t_near_exit < tmin);
+                let hit_far = !(t_far_entry > tmax);
+                if hit_near && hit_far {
+                    stack[sp] = (far as u32, raise(tmin, t_far_entry), tmax);
+                    sp += 1;
+                    tmax = lower(tmax, t_near_exit);
+                    node = near;
+                    continue;
+                }
+                if hit_near {
+                    tmax = lower(tmax, t_near_exit);
+                    node = near;
+                    continue;
+                }
+                if hit_far {
+                    tmin = raise(tmin, t_far_entry);
+                    node = far;
+                    continue;
+                }
+                None
+            }
+            DstNode::CarveSingle {
+                axis,
+                planes,
+                leaf,
+                offset,
+            } => {
+                tally.planes += 2;
+                let a = axis as usize & 3;
+                let t_lo = (planes[0] - o[a]) * inv[a];
+                let t_hi = (planes[1] - o[a]) * inv[a];
+                let (t_in, t_out) = if neg[a] { (t_hi, t_lo) } else { (t_lo, t_hi) };
+                tmin = raise(tmin, entry(t_in));
+                tmax = lower(tmax, exit(t_out));
+                (tmin <= tmax).then_some((leaf, offset))
+            }
+            DstNode::CarveDual {
+                axes,
+                max_side,
+                planes,
+                leaf,
+                offset,
+            } => {
+                tally.planes += 2;
+                for k in 0..2 {
+                    let a = axes[k] as usize & 3;
+                    let t = (planes[k] - o[a]) * inv[a];
+                    // A minimum plane is entered going +axis, a maximum
+                    // plane left; a negative direction swaps the two.
+                    if max_side[k] != neg[a] {
+                        tmax = lower(tmax, exit(t));
+                    } else {
+                        tmin = raise(tmin, entry(t));
+                    }
+                }
+                (tmin <= tmax).then_some((leaf, offset))
+            }
+            DstNode::Leaf { offset } => Some((true, offset)),
+        };
+        if let Some((leaf, offset)) = descend {
+            if !leaf {
+                node += offset as usize;
+                continue;
+            }
+            if intersect_leaf::<ANY>(
+                &dst.index,
+                &dst.triangles,
+                offset,
+                ray,
+                &mut best_t,
+                &mut best,
+                &mut tally,
+            ) {
+                break;
+            }
+        }
+        // Pop the next entry whose interval still starts before the closest hit.
+        loop {
+            if sp == 0 {
+                break 'outer;
+            }
+            sp -= 1;
+            let (n, t0, t1) = stack[sp];
+            if t0 <= best_t {
+                (node, tmin, tmax) = (n as usize, t0, lower(t1, best_t));
+                continue 'outer;
+            }
+        }
+    }
+    stats.add(tally);
+    best
+}

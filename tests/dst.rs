@@ -1,0 +1,210 @@
+//! Dual-split trees: the encoding, the partitioning against the BVH's, and
+//! the traversal against the oracle.
+
+mod common;
+
+use raytree::accel::dst::node::DstNode;
+use raytree::accel::dst::LAST;
+use raytree::accel::DualSplitTree;
+use raytree::prelude::*;
+use std::collections::HashMap;
+
+/// Walks the encoded tree from the scene box, narrowing each node's region
+/// by its planes; calls `leaf(region, prims)` at every leaf and `node(at,
+/// decoded)` at every node. Returns the number of words visited.
+fn walk(
+    t: &DualSplitTree,
+    root: Aabb,
+    leaf: &mut dyn FnMut(Aabb, Vec<u32>),
+    node: &mut dyn FnMut(usize, DstNode),
+) -> usize {
+    let mut todo = vec![(0usize, root)];
+    let mut words = 0;
+    while let Some((at, mut cell)) = todo.pop() {
+        let n = t.node(at);
+        node(at, n);
+        words += n.words();
+        let leaf_at = |offset: u32| {
+            let mut prims = vec![];
+            let mut i = offset as usize;
+            loop {
+                let e = t_index(t)[i];
+                prims.push(e & !LAST);
+                if e & LAST != 0 {
+                    break prims;
+                }
+                i += 1;
+            }
+        };
+        match n {
+            DstNode::Split {
+                axis,
+                planes,
+                first_words,
+                offset,
+            } => {
+                let a = axis as usize;
+                let first = at + offset as usize;
+                let mut c0 = cell;
+                c0.max[a] = planes[0];
+                let mut c1 = cell;
+                c1.min[a] = planes[1];
+                todo.push((first, c0));
+                todo.push((first + first_words as usize, c1));
+            }
+            DstNode::CarveSingle {
+                axis,
+                planes,
+                leaf: is_leaf,
+                offset,
+            } => {
+                cell.min[axis as usize] = planes[0];
+                cell.max[axis as usize] = planes[1];
+                if is_leaf {
+                    leaf(cell, leaf_at(offset));
+                } else {
+                    todo.push((at + offset as usize, cell));
+                }
+            }
+            DstNode::CarveDual {
+                axes,
+                max_side,
+                planes,
+                leaf: is_leaf,
+                offset,
+            } => {
+                for k in 0..2 {
+                    if max_side[k] {
+                        cell.max[axes[k] as usize] = planes[k];
+                    } else {
+                        cell.min[axes[k] as usize] = planes[k];
+                    }
+                }
+                if is_leaf {
+                    leaf(cell, leaf_at(offset));
+                } else {
+                    todo.push((at + offset as usize, cell));
+                }
+            }
+            DstNode::Leaf { offset } => leaf(cell, leaf_at(offset)),
+        }
+    }
+    words
+}
+
+fn t_index(t: &DualSplitTree) -> &[u32] {
+    t.index_list()
+}
+
+fn scenes() -> Vec<Scene> {
+    let mut v = vec![
+        Scene::builtin("chess:4000").unwrap(),
+        Scene::builtin("hairball:4000").unwrap(),
+    ];
+    if let Some(p) = common::shared_scene("teapot.obj") {
+        v.push(Scene::load(p).unwrap());
+    }
+    v
+}
+
+#[test]
+fn identical_conversion_reproduces_every_bvh_leaf_box_exactly() {
+    for scene in scenes() {
+        for builder in Builder::ALL {
+            let bvh = Bvh::build(&scene.triangles, &BuildOptions::new(builder));
+            let leaf_of: HashMap<u32, u32> = bvh
+                .nodes
+                .iter()
+                .enumerate()
+                .filter(|(_, n)| n.is_leaf())
+                .flat_map(|(i, n)| bvh.leaf_prims(n).iter().map(move |&p| (p, i as u32)))
+                .collect();
+            for similar in [false, true] {
+                let t = DualSplitTree::from_bvh(&bvh, scene.triangles.clone(), similar).unwrap();
+                let mut seen = vec![0; bvh.nodes.len()];
+                let words = walk(
+                    &t,
+                    bvh.bounds(),
+                    &mut |cell, prims| {
+                        let id = leaf_of[&prims[0]];
+                        seen[id as usize] += 1;
+                        let n = &bvh.nodes[id as usize];
+                        assert_eq!(prims, bvh.leaf_prims(n), "{}: leaf triangles", scene.name);
+                        if similar {
+                            assert!(
+                                cell.contains(&n.bounds),
+                                "{}: similar region must hold the leaf",
+                                scene.name
+                            );
+                        } else {
+                            assert_eq!(
+                                cell, n.bounds,
+                                "{}: identical region differs from the BVH leaf box",
+                                scene.name
+                            );
+                        }
+                    },
+                    &mut |_, _| {},
+                );
+                assert_eq!(
+                    words * 4,
+                    t.stats.node_bytes,
+                    "every word belongs to one node"
+                );
+                for (i, n) in bvh.nodes.iter().enumerate() {
+                    assert_eq!(
+                        seen[i],
+                        n.is_leaf() as i32,
+                        "BVH node {i} seen {} times",
+                        seen[i]
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn nodes_decode_to_what_was_encoded_and_sizes_add_up() {
+    let scene = Scene::builtin("hairball:5000").unwrap();
+    let bvh = Bvh::build(&scene.triangles, &BuildOptions::sah());
+    for similar in [false, true] {
+        let t = DualSplitTree::from_bvh(&bvh, scene.triangles.clone(), similar).unwrap();
+        let mut kinds = [0usize; 4];
+        walk(&t, bvh.bounds(), &mut |_, _| {}, &mut |at, n| {
+            let mut w = Vec::new();
+            n.encode(&mut w).unwrap();
+            assert_eq!(
+                &w[..],
+                &t.words()[at..at + n.words()],
+                "re-encoding node at {at}"
+            );
+            kinds[match n {
+                DstNode::Split { .. } => 0,
+                DstNode::CarveSingle { .. } => 1,
+                DstNode::CarveDual { .. } => 2,
+                DstNode::Leaf { .. } => 3,
+            }] += 1;
+        });
+        let s = &t.stats;
+        assert_eq!(
+            kinds,
+            [s.split_nodes, s.carve_single, s.carve_dual, s.plain_leaves]
+        );
+        assert_eq!(
+            s.node_bytes,
+            12 * (s.split_nodes + s.carve_single + s.carve_dual) + 4 * s.plain_leaves
+        );
+        assert_eq!(s.index_bytes, 4 * bvh.prims.len());
+        // One splitting node per BVH inner node; every splitting-node child
+        // has 0 to 3 carving levels.
+        assert_eq!(s.split_nodes, bvh.stats.inner_nodes);
+        assert_eq!(s.carving_levels.iter().sum::<usize>(), 2 * s.split_nodes);
+        if !similar {
+            // The similar conversion never needs more carving nodes.
+            let sim = DualSplitTree::from_bvh(&bvh, scene.triangles.clone(), true).unwrap();
+            assert!(sim.stats.carve_single + sim.stats.carve_dual <= s.carve_single + s.carve_dual);
+            assert!(sim.stats.node_bytes <= s.node_bytes);
+        }
+    }
+}
