@@ -62,7 +62,7 @@ pub fn trace<S: Stats, const ANY: bool>(
         ..Tally::default()
     };
     let (tn, tf) = br.interval(&dst.root_bounds.to_array(), ray.tmin, ray.tmax);
-    if !(tn <= tf) {
+    if tn > tf {
         stats.add(tally);
         return None;
     }
@@ -98,8 +98,9 @@ pub fn trace<S: Stats, const ANY: bool>(
                 } else {
                     (first, exit(t1), second, entry(t2))
                 };
-                let hit_near = !(t_near_exit < tmin);
-                let hit_far = !(t_far_entry > tmax);
+                // A NaN distance (a ray in the plane) keeps the child.
+                let hit_near = t_near_exit >= tmin || t_near_exit.is_nan();
+                let hit_far = t_far_entry <= tmax || t_far_entry.is_nan();
                 if hit_near && hit_far {
                     stack[sp] = (far as u32, raise(tmin, t_far_entry), tmax);
                     sp += 1;
