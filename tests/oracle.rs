@@ -9,12 +9,13 @@ use raytree::prelude::*;
 /// Closest hits must be identical (same t, triangle and barycentrics: the
 /// same triangle test and tie rule run in both); any-hit answers must agree
 /// on hit or miss, and a reported hit must lie within the ray's interval.
-fn check<A: Accel>(accel: &A, oracle: &BruteForce, rays: &[Ray], what: &str) {
+fn check<A: Accel>(accel: &A, oracle: &Oracle, rays: &[Ray], what: &str) {
     let bad: Vec<String> = rays
         .par_iter()
         .enumerate()
         .filter_map(|(i, r)| {
-            let want = oracle.closest_hit(r, &mut NoStats);
+            let want = oracle.closest[i];
+            let oracle = &oracle.brute;
             let got = accel.closest_hit(r, &mut NoStats);
             if !same_closest(got, want, oracle, r) {
                 return Some(format!("ray {i} {r:?}: closest {got:?}, oracle {want:?}"));
@@ -38,6 +39,23 @@ fn check<A: Accel>(accel: &A, oracle: &BruteForce, rays: &[Ray], what: &str) {
         rays.len(),
         bad[0]
     );
+}
+
+/// The brute-force closest hits of a ray set, computed once per scene.
+struct Oracle {
+    brute: BruteForce,
+    closest: Vec<Option<Hit>>,
+}
+
+impl Oracle {
+    fn new(scene: &Scene, rays: &[Ray]) -> Self {
+        let brute = BruteForce::new(scene.triangles.clone());
+        let closest = rays
+            .par_iter()
+            .map(|r| brute.closest_hit(r, &mut NoStats))
+            .collect();
+        Oracle { brute, closest }
+    }
 }
 
 /// The same closest hit, up to what f32 coordinates can tell apart.
@@ -66,11 +84,8 @@ fn same_closest(got: Option<Hit>, want: Option<Hit>, oracle: &BruteForce, r: &Ra
 
 fn check_scene(scene: &Scene, rays: usize) {
     let rays = common::mixed_rays(scene, rays, 7);
-    let oracle = BruteForce::new(scene.triangles.clone());
-    let hits = rays
-        .iter()
-        .filter(|r| oracle.any_hit(r, &mut NoStats).is_some())
-        .count();
+    let oracle = Oracle::new(scene, &rays);
+    let hits = oracle.closest.iter().filter(|h| h.is_some()).count();
     assert!(
         hits > rays.len() / 5 && hits < rays.len(),
         "{}: a poor ray set ({hits} hits)",
@@ -86,6 +101,11 @@ fn check_scene(scene: &Scene, rays: usize) {
             &rays,
             &format!("{} bvh/{}", scene.name, builder.name()),
         );
+        for similar in [false, true] {
+            let dst = DualSplitTree::from_bvh(&bvh, scene.triangles.clone(), similar).unwrap();
+            let what = format!("{} {}/{}", scene.name, dst.name(), builder.name());
+            check(&dst, &oracle, &rays, &what);
+        }
     }
 }
 
@@ -117,7 +137,7 @@ fn shared_meshes_agree_with_oracle() {
 fn every_leaf_size_agrees_with_oracle() {
     let scene = Scene::builtin("hairball:2000").unwrap();
     let rays = common::mixed_rays(&scene, 10_000, 3);
-    let oracle = BruteForce::new(scene.triangles.clone());
+    let oracle = Oracle::new(&scene, &rays);
     for leaf in 1..=8 {
         for builder in Builder::ALL {
             let bvh = Bvh::build(
