@@ -234,7 +234,7 @@ fn failures_are_one_clear_line_and_leave_no_output() {
     );
     fails(&["render", "-s", "chess:1", "-o", "a.png"], 1, "size");
     fails(
-        &["render", "-a", "dst", "-o", "a.png"],
+        &["render", "-a", "bih", "-o", "a.png"],
         1,
         "not implemented yet",
     );

@@ -11,18 +11,19 @@ use std::collections::HashMap;
 
 /// Walks the encoded tree from the scene box, narrowing each node's region
 /// by its planes; calls `leaf(region, prims)` at every leaf and `node(at,
-/// decoded)` at every node. Returns the number of words visited.
+/// decoded, region on entry)` at every node. Returns the number of words
+/// visited.
 fn walk(
     t: &DualSplitTree,
     root: Aabb,
     leaf: &mut dyn FnMut(Aabb, Vec<u32>),
-    node: &mut dyn FnMut(usize, DstNode),
+    node: &mut dyn FnMut(usize, DstNode, Aabb),
 ) -> usize {
     let mut todo = vec![(0usize, root)];
     let mut words = 0;
     while let Some((at, mut cell)) = todo.pop() {
         let n = t.node(at);
-        node(at, n);
+        node(at, n, cell);
         words += n.words();
         let leaf_at = |offset: u32| {
             let mut prims = vec![];
@@ -122,6 +123,7 @@ fn identical_conversion_reproduces_every_bvh_leaf_box_exactly() {
             for similar in [false, true] {
                 let t = DualSplitTree::from_bvh(&bvh, scene.triangles.clone(), similar).unwrap();
                 let mut seen = vec![0; bvh.nodes.len()];
+                let mut split_regions = Vec::new();
                 let words = walk(
                     &t,
                     bvh.bounds(),
@@ -144,7 +146,11 @@ fn identical_conversion_reproduces_every_bvh_leaf_box_exactly() {
                             );
                         }
                     },
-                    &mut |_, _| {},
+                    &mut |_, n, cell| {
+                        if let DstNode::Split { .. } = n {
+                            split_regions.push(cell.to_array());
+                        }
+                    },
                 );
                 assert_eq!(
                     words * 4,
@@ -171,7 +177,7 @@ fn nodes_decode_to_what_was_encoded_and_sizes_add_up() {
     for similar in [false, true] {
         let t = DualSplitTree::from_bvh(&bvh, scene.triangles.clone(), similar).unwrap();
         let mut kinds = [0usize; 4];
-        walk(&t, bvh.bounds(), &mut |_, _| {}, &mut |at, n| {
+        walk(&t, bvh.bounds(), &mut |_, _| {}, &mut |at, n, _| {
             let mut w = Vec::new();
             n.encode(&mut w).unwrap();
             assert_eq!(

@@ -326,9 +326,11 @@ fn too_deep_trees_are_clear_errors() {
 #[test]
 fn state_sizes_follow_figure_5() {
     use raytree::traversal::state_bytes;
-    assert_eq!(state_bytes(TraversalKind::ImplicitA), 12);
-    assert_eq!(state_bytes(TraversalKind::ImplicitB), 8);
-    assert_eq!(state_bytes(TraversalKind::Hapala), 8);
-    assert!(state_bytes(TraversalKind::Laine8) > state_bytes(TraversalKind::Laine0));
-    assert!(state_bytes(TraversalKind::Stack) > state_bytes(TraversalKind::Laine8));
+    assert_eq!(state_bytes(TraversalKind::ImplicitA, 20), 12);
+    assert_eq!(state_bytes(TraversalKind::ImplicitB, 20), 8);
+    assert_eq!(state_bytes(TraversalKind::Hapala, 20), 8);
+    assert!(state_bytes(TraversalKind::Laine8, 20) > state_bytes(TraversalKind::Laine0, 20));
+    assert!(state_bytes(TraversalKind::Stack, 20) > state_bytes(TraversalKind::Laine8, 20));
+    assert_eq!(state_bytes(TraversalKind::Stack, 20), 8 + 4 * 32);
+    assert_eq!(state_bytes(TraversalKind::Stack, 40), 8 + 4 * 64);
 }

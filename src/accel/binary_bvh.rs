@@ -55,6 +55,7 @@ pub struct BinaryBvh {
     ids: Vec<u32>,
     inner_nodes: usize,
     leaves: usize,
+    pub(crate) depth: u32,
 }
 
 impl BinaryBvh {
@@ -87,6 +88,7 @@ impl BinaryBvh {
             ids: Vec::with_capacity(bvh.nodes.len()),
             inner_nodes: bvh.stats.inner_nodes,
             leaves: bvh.stats.leaves,
+            depth: bvh.stats.depth,
         };
         b.root = b.place(bvh, ROOT);
         b.fill(bvh, ROOT, b.root);

@@ -258,7 +258,8 @@ impl Built {
             reserved_bytes: None,
             inner_nodes: inner,
             leaves,
-            state_bytes: (structure == StructureKind::Bvh).then(|| state_bytes(traversal)),
+            state_bytes: (structure == StructureKind::Bvh)
+                .then(|| state_bytes(traversal, bvh.stats.depth)),
             conversion_seconds: 0.0,
             dst: None,
         };

@@ -175,7 +175,7 @@ pub fn run_scene(scene: &Scene, opts: &Options, tick: &dyn Fn()) -> Result<Scene
             rows.push(Row {
                 algorithm: name,
                 layout,
-                state_bytes: state_bytes(*t),
+                state_bytes: state_bytes(*t, bvh.stats.depth),
                 threads,
                 seconds: r.eye.seconds + r.ao.seconds,
                 ratio: 0.0,

@@ -68,6 +68,42 @@ pub fn run(args: InfoArgs) -> Result<()> {
             s.conversion_seconds
         );
     }
+    let dsts: Vec<_> = r
+        .structures
+        .iter()
+        .filter_map(|s| s.dst.as_ref().map(|d| (s.structure, d)))
+        .collect();
+    if !dsts.is_empty() {
+        let bvh_bytes = r
+            .structures
+            .iter()
+            .find(|s| s.structure == StructureKind::Bvh)
+            .map(|s| s.bytes);
+        println!();
+        println!("| dual-split | storage vs bvh | split | carve 1-axis | carve 2-axis | carving leaves | plain leaves | 0 / 1 / 2 / 3 carving levels | 1-axis : 2-axis |");
+        println!("|---|---:|---:|---:|---:|---:|---:|---|---|");
+        for (kind, d) in dsts {
+            let levels = d.carving_levels;
+            let all = levels.iter().sum::<usize>().max(1) as f64;
+            let carves = (d.carve_single + d.carve_dual).max(1) as f64;
+            println!(
+                "| {} | {} | {} | {} | {} | {} | {} | {:.0}% / {:.0}% / {:.0}% / {:.1}% | {:.0}% : {:.0}% |",
+                kind.name(),
+                bvh_bytes.map_or("-".into(), |b| format!("{:.1}%", 100.0 * (d.node_bytes + d.index_bytes) as f64 / b as f64)),
+                d.split_nodes,
+                d.carve_single,
+                d.carve_dual,
+                d.carving_leaves,
+                d.plain_leaves,
+                100.0 * levels[0] as f64 / all,
+                100.0 * levels[1] as f64 / all,
+                100.0 * levels[2] as f64 / all,
+                100.0 * levels[3] as f64 / all,
+                100.0 * d.carve_single as f64 / carves,
+                100.0 * d.carve_dual as f64 / carves,
+            );
+        }
+    }
     if let Some(p) = &args.json {
         common::write_json(p, &r)?;
     }

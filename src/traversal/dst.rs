@@ -10,7 +10,7 @@
 //! never lost to rounding.
 
 use super::leaf::intersect_leaf;
-use super::MAX_STACK_DEPTH;
+use super::with_stack;
 use crate::accel::dst::node::DstNode;
 use crate::accel::dst::DualSplitTree;
 use crate::geometry::aabb::ROBUST_WIDENING;
@@ -53,6 +53,15 @@ pub fn trace<S: Stats, const ANY: bool>(
     ray: &Ray,
     stats: &mut S,
 ) -> Option<Hit> {
+    with_stack!(dst.depth, trace_n::<S; ANY>(dst, ray, stats))
+}
+
+#[inline]
+fn trace_n<S: Stats, const ANY: bool, const N: usize>(
+    dst: &DualSplitTree,
+    ray: &Ray,
+    stats: &mut S,
+) -> Option<Hit> {
     if dst.is_empty() {
         return None;
     }
@@ -70,7 +79,7 @@ pub fn trace<S: Stats, const ANY: bool>(
     let (o, inv, neg) = (br.org, br.inv, br.neg);
     let mut best: Option<Hit> = None;
     let mut best_t = ray.tmax;
-    let mut stack = [(0u32, 0f32, 0f32); MAX_STACK_DEPTH];
+    let mut stack = [(0u32, 0f32, 0f32); N];
     let mut sp = 0;
     let (mut node, mut tmin, mut tmax) = (0usize, tn, tf);
     'outer: loop {

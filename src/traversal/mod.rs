@@ -21,6 +21,29 @@ use std::sync::Arc;
 /// holds at most one pending node per level.
 pub const MAX_STACK_DEPTH: usize = 128;
 
+/// The stack a tree of `depth` levels needs: 32, 64 or 128 entries. Stack
+/// traversals are compiled for each size and pick theirs per tree, so that
+/// a ray does not pay for clearing a stack deeper than its tree.
+pub fn stack_capacity(depth: u32) -> usize {
+    match depth {
+        0..32 => 32,
+        32..64 => 64,
+        _ => MAX_STACK_DEPTH,
+    }
+}
+
+/// Calls `$f::<.., N>($args)` with the stack capacity `N` for `$depth`.
+macro_rules! with_stack {
+    ($depth:expr, $f:ident::<$($g:ty),*; $any:ident>($($a:expr),*)) => {
+        match $crate::traversal::stack_capacity($depth) {
+            32 => $f::<$($g,)* $any, 32>($($a),*),
+            64 => $f::<$($g,)* $any, 64>($($a),*),
+            _ => $f::<$($g,)* $any, 128>($($a),*),
+        }
+    };
+}
+pub(crate) use with_stack;
+
 /// An algorithm over the sparse layout.
 pub trait SparseAlgorithm: Send + Sync + 'static {
     const KIND: TraversalKind;
@@ -187,13 +210,14 @@ impl<A: ImplicitAlgorithm> Accel for OnImplicit<A> {
 
 /// Traversal state in bytes, counted as the stackless paper's Figure 5
 /// counts it: 4 bytes per 32-bit state variable (8 for the 64-bit ones
-/// here), and a stack adds its head and 4 bytes per entry.
-pub fn state_bytes(kind: TraversalKind) -> usize {
+/// here), and a stack adds its head and 4 bytes per entry (STACK's size
+/// follows the tree's depth, see [`stack_capacity`]).
+pub fn state_bytes(kind: TraversalKind, depth: u32) -> usize {
     use TraversalKind::*;
     let laine = |k: usize| 4 + 3 * 8 + if k > 0 { 4 + 4 * k } else { 0 };
     match kind {
         // node, stack head, entries
-        Stack => 4 + 4 + 4 * MAX_STACK_DEPTH,
+        Stack => 4 + 4 + 4 * stack_capacity(depth),
         // levelStart, levelIndex, swapMask
         ImplicitA => 3 * 4,
         // index, levelIndex

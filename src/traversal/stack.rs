@@ -11,12 +11,21 @@ use crate::accel::binary_bvh::{
 use crate::accel::sparse_bvh::SparseBvh;
 use crate::geometry::{BoxRay, Hit, Ray};
 use crate::stats::{Stats, Tally};
-use crate::traversal::MAX_STACK_DEPTH;
+use crate::traversal::with_stack;
 
 /// Closest hit (`ANY = false`) or any hit (`ANY = true`) over the
 /// uncompressed binary BVH.
 #[inline]
 pub fn trace<S: Stats, const ANY: bool>(bvh: &BinaryBvh, ray: &Ray, stats: &mut S) -> Option<Hit> {
+    with_stack!(bvh.depth, trace_n::<S; ANY>(bvh, ray, stats))
+}
+
+#[inline]
+fn trace_n<S: Stats, const ANY: bool, const N: usize>(
+    bvh: &BinaryBvh,
+    ray: &Ray,
+    stats: &mut S,
+) -> Option<Hit> {
     if bvh.is_empty() {
         return None;
     }
@@ -33,7 +42,7 @@ pub fn trace<S: Stats, const ANY: bool>(bvh: &BinaryBvh, ray: &Ray, stats: &mut 
     }
     let words = &bvh.words[..];
     let mut best: Option<Hit> = None;
-    let mut stack = [0 as NodeRef; MAX_STACK_DEPTH];
+    let mut stack = [0 as NodeRef; N];
     let mut sp = 0;
     let mut node = bvh.root;
     loop {
@@ -108,6 +117,15 @@ pub fn trace_sparse<S: Stats, const ANY: bool>(
     ray: &Ray,
     stats: &mut S,
 ) -> Option<Hit> {
+    with_stack!(sp_bvh.depth, trace_sparse_n::<S; ANY>(sp_bvh, ray, stats))
+}
+
+#[inline]
+fn trace_sparse_n<S: Stats, const ANY: bool, const N: usize>(
+    sp_bvh: &SparseBvh,
+    ray: &Ray,
+    stats: &mut S,
+) -> Option<Hit> {
     if sp_bvh.is_empty() {
         return None;
     }
@@ -124,7 +142,7 @@ pub fn trace_sparse<S: Stats, const ANY: bool>(
         return None;
     }
     let mut best: Option<Hit> = None;
-    let mut stack = [0u32; MAX_STACK_DEPTH];
+    let mut stack = [0u32; N];
     let mut sp = 0;
     let mut node = 0u32;
     loop {

@@ -63,6 +63,8 @@ pub struct DualSplitTree {
     pub(crate) triangles: Arc<[Triangle]>,
     pub(crate) root_bounds: Aabb,
     similar: bool,
+    /// The BVH's depth: a bound on the traversal stack.
+    pub(crate) depth: u32,
     pub stats: DstStats,
 }
 
@@ -87,6 +89,7 @@ impl DualSplitTree {
             triangles,
             root_bounds: bvh.bounds(),
             similar,
+            depth: bvh.stats.depth,
             stats: DstStats::default(),
         };
         if !bvh.prims.is_empty() {
