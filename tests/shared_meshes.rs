@@ -22,6 +22,8 @@ impl WithAccel for Answers<'_> {
     }
 }
 
+const RAYS: usize = 100_000;
+
 #[test]
 fn every_structure_agrees_on_every_shared_mesh() {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes");
@@ -37,7 +39,7 @@ fn every_structure_agrees_on_every_shared_mesh() {
     assert!(!files.is_empty());
     for path in files {
         let scene = Scene::load(&path).unwrap();
-        let rays = common::mixed_rays(&scene, 100_000, 17);
+        let rays = common::mixed_rays(&scene, RAYS, 17);
         let bvh = Bvh::build(&scene.triangles, &BuildOptions::sah());
         let brute = BruteForce::new(scene.triangles.clone());
         let reference = Built::new(

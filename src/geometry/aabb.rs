@@ -106,6 +106,26 @@ impl Aabb {
 pub const ROBUST_WIDENING: f32 =
     2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
 
+/// `t` moved up by `2γ₃` of itself; ±inf and NaN stay as they are.
+#[inline(always)]
+pub fn widen_up(t: f32) -> f32 {
+    t * if t > 0.0 {
+        1.0 + ROBUST_WIDENING
+    } else {
+        1.0 - ROBUST_WIDENING
+    }
+}
+
+/// `t` moved down by `2γ₃` of itself; ±inf and NaN stay as they are.
+#[inline(always)]
+pub fn widen_down(t: f32) -> f32 {
+    t * if t > 0.0 {
+        1.0 - ROBUST_WIDENING
+    } else {
+        1.0 + ROBUST_WIDENING
+    }
+}
+
 /// Per-ray constants of the slab test, computed once per ray.
 #[derive(Clone, Copy, Debug)]
 pub struct BoxRay {
@@ -187,7 +207,7 @@ impl BoxRay {
             tn = if n > tn { n } else { tn };
             tf = if f < tf { f } else { tf };
         }
-        tf += tf.abs() * ROBUST_WIDENING;
+        let tf = widen_up(tf);
         (tn, if tmax < tf { tmax } else { tf })
     }
 
@@ -206,7 +226,13 @@ impl BoxRay {
             tn = max_keep(t, tn);
             tf = min_keep(t.zwxy(), tf);
         }
-        tf += tf.abs() * ROBUST_WIDENING;
+        // Multiplicative widening keeps ±inf (a ray parallel to a slab).
+        let up = Vec4::select(
+            tf.cmpgt(Vec4::ZERO),
+            Vec4::splat(1.0 + ROBUST_WIDENING),
+            Vec4::splat(1.0 - ROBUST_WIDENING),
+        );
+        tf *= up;
         tf = min_keep(Vec4::splat(tmax), tf);
         let hit = tn.cmple(tf);
         let t = Vec4::select(hit, tn, Vec4::INFINITY);
@@ -250,6 +276,17 @@ mod tests {
         // Just outside the slab with d.y = 0 misses.
         let r = Ray::infinite(Vec3::new(-1.0, -1e-30, 0.5), Vec3::X);
         assert_eq!(unit().intersect(&r, f32::INFINITY), None);
+    }
+
+    #[test]
+    fn parallel_rays_outside_a_slab_miss_without_nans() {
+        // d.x = 0 with the origin beside the box: both x slabs are -inf.
+        let r = Ray::infinite(Vec3::new(2.0, 0.5, -1.0), Vec3::Z);
+        let (tn, tf) = BoxRay::new(&r).interval(&unit().to_array(), 0.0, f32::INFINITY);
+        assert!(tn > tf && !tf.is_nan(), "{tn} {tf}");
+        assert_eq!(widen_up(f32::NEG_INFINITY), f32::NEG_INFINITY);
+        assert_eq!(widen_down(f32::INFINITY), f32::INFINITY);
+        assert!(widen_up(2.0) > 2.0 && widen_down(2.0) < 2.0 && widen_up(-2.0) > -2.0);
     }
 
     #[test]

@@ -13,18 +13,25 @@ use super::leaf::intersect_leaf;
 use super::with_stack;
 use crate::accel::dst::node::DstNode;
 use crate::accel::dst::DualSplitTree;
-use crate::geometry::aabb::ROBUST_WIDENING;
+use crate::geometry::aabb::{widen_down, widen_up};
 use crate::geometry::{BoxRay, Hit, Ray};
 use crate::stats::{Stats, Tally};
 
 #[inline(always)]
 fn entry(t: f32) -> f32 {
-    t - t.abs() * ROBUST_WIDENING
+    widen_down(t)
 }
 
 #[inline(always)]
 fn exit(t: f32) -> f32 {
-    t + t.abs() * ROBUST_WIDENING
+    widen_up(t)
+}
+
+/// Whether `[tmin, tmax]` holds a point of the ray: an interval starting at
+/// +inf (a ray parallel to a plane, outside it) does not.
+#[inline(always)]
+fn nonempty(tmin: f32, tmax: f32) -> bool {
+    tmin <= tmax && tmin < f32::INFINITY
 }
 
 /// `max(t, acc)` keeping `acc` when `t` is NaN (a ray in the plane).
@@ -107,9 +114,12 @@ fn trace_n<S: Stats, const ANY: bool, const N: usize>(
                 } else {
                     (first, exit(t1), second, entry(t2))
                 };
-                // A NaN distance (a ray in the plane) keeps the child.
+                // A NaN distance (a ray in the plane) keeps the child; an
+                // entry at +inf (a ray parallel to the plane, outside it)
+                // is never reached.
                 let hit_near = t_near_exit >= tmin || t_near_exit.is_nan();
-                let hit_far = t_far_entry <= tmax || t_far_entry.is_nan();
+                let hit_far =
+                    (t_far_entry <= tmax && t_far_entry < f32::INFINITY) || t_far_entry.is_nan();
                 if hit_near && hit_far {
                     stack[sp] = (far as u32, raise(tmin, t_far_entry), tmax);
                     sp += 1;
@@ -142,7 +152,7 @@ fn trace_n<S: Stats, const ANY: bool, const N: usize>(
                 let (t_in, t_out) = if neg[a] { (t_hi, t_lo) } else { (t_lo, t_hi) };
                 tmin = raise(tmin, entry(t_in));
                 tmax = lower(tmax, exit(t_out));
-                (tmin <= tmax).then_some((leaf, offset))
+                nonempty(tmin, tmax).then_some((leaf, offset))
             }
             DstNode::CarveDual {
                 axes,
@@ -163,7 +173,7 @@ fn trace_n<S: Stats, const ANY: bool, const N: usize>(
                         tmin = raise(tmin, entry(t));
                     }
                 }
-                (tmin <= tmax).then_some((leaf, offset))
+                nonempty(tmin, tmax).then_some((leaf, offset))
             }
             DstNode::Leaf { offset } => Some((true, offset)),
         };
@@ -191,7 +201,7 @@ fn trace_n<S: Stats, const ANY: bool, const N: usize>(
             }
             sp -= 1;
             let (n, t0, t1) = stack[sp];
-            if t0 <= best_t {
+            if t0 <= best_t && t0 < f32::INFINITY {
                 (node, tmin, tmax) = (n as usize, t0, lower(t1, best_t));
                 continue 'outer;
             }

@@ -168,6 +168,19 @@ fn search(
     if left == 0 || ops.len() == MAX_LEVELS {
         return;
     }
+    let remaining = left.count_ones() as usize;
+    // A carving node removes at most two planes: a complete plan must fit
+    // the levels left.
+    if complete && remaining.div_ceil(2) > MAX_LEVELS - ops.len() {
+        return;
+    }
+    // No plan from here costs less than what is spent already plus the
+    // target's own area: prune against the best so far.
+    if let Some(b) = best {
+        if cost >= b.cost {
+            return;
+        }
+    }
     let node_cost = cell.area() * inv;
     // Single-axis: every remaining plane on one axis.
     for axis in 0..3u8 {
