@@ -99,8 +99,8 @@ fn hairball_agrees_with_oracle() {
 fn shared_meshes_agree_with_oracle() {
     for (name, rays) in [
         ("teapot.obj", 100_000),
-        ("bunny.obj", 20_000),
-        ("battlefield.obj", 20_000),
+        ("bunny.obj", 100_000),
+        ("battlefield.obj", 100_000),
     ] {
         match common::shared_scene(name) {
             Some(p) => check_scene(&Scene::load(p).unwrap(), rays),
