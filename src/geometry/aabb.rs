@@ -106,23 +106,24 @@ impl Aabb {
 pub const ROBUST_WIDENING: f32 =
     2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
 
-/// `t` moved up by `2γ₃` of itself; ±inf and NaN stay as they are.
+/// `t` moved up by `2γ₃` of itself; ±inf and NaN stay as they are
+/// (`-inf + inf` would be NaN).
 #[inline(always)]
 pub fn widen_up(t: f32) -> f32 {
-    t * if t > 0.0 {
-        1.0 + ROBUST_WIDENING
+    if t.is_finite() {
+        t + t.abs() * ROBUST_WIDENING
     } else {
-        1.0 - ROBUST_WIDENING
+        t
     }
 }
 
 /// `t` moved down by `2γ₃` of itself; ±inf and NaN stay as they are.
 #[inline(always)]
 pub fn widen_down(t: f32) -> f32 {
-    t * if t > 0.0 {
-        1.0 - ROBUST_WIDENING
+    if t.is_finite() {
+        t - t.abs() * ROBUST_WIDENING
     } else {
-        1.0 + ROBUST_WIDENING
+        t
     }
 }
 
@@ -226,13 +227,10 @@ impl BoxRay {
             tn = max_keep(t, tn);
             tf = min_keep(t.zwxy(), tf);
         }
-        // Multiplicative widening keeps ±inf (a ray parallel to a slab).
-        let up = Vec4::select(
-            tf.cmpgt(Vec4::ZERO),
-            Vec4::splat(1.0 + ROBUST_WIDENING),
-            Vec4::splat(1.0 - ROBUST_WIDENING),
-        );
-        tf *= up;
+        // As `widen_up`, except that an exit at -inf (a ray parallel to a
+        // slab, beside it) becomes NaN here; NaN fails `tn <= tf` below, a
+        // miss, which is what -inf gives too. Cheaper than guarding.
+        tf += tf.abs() * ROBUST_WIDENING;
         tf = min_keep(Vec4::splat(tmax), tf);
         let hit = tn.cmple(tf);
         let t = Vec4::select(hit, tn, Vec4::INFINITY);
