@@ -4,10 +4,10 @@
 //! so that on the way back up the sibling to visit next is known without
 //! testing boxes again. Its visiting order differs from STACK's.
 
-use super::leaf::{intersect_leaf, LAST};
+use super::leaf::{enter, intersect_leaf, LAST};
 use crate::accel::sparse_bvh::{sibling, SparseBvh};
-use crate::geometry::{BoxRay, Hit, Ray};
-use crate::stats::{Stats, Tally};
+use crate::geometry::{Hit, Ray};
+use crate::stats::Stats;
 
 #[derive(Clone, Copy, PartialEq, Eq)]
 enum From {
@@ -25,14 +25,10 @@ pub fn hapala<S: Stats, const ANY: bool>(sp: &SparseBvh, ray: &Ray, stats: &mut 
         return None;
     }
     let nodes = &sp.nodes[..];
-    let br = BoxRay::new(ray);
+    let (br, mut tally) = enter(ray, &nodes[0].bounds, stats)?;
     let d = ray.direction().to_array();
     let tmin = ray.tmin;
     let mut tmax = ray.tmax;
-    let mut tally = Tally {
-        planes: 6,
-        ..Tally::default()
-    };
     let mut best = None;
     // The near child: left if the direction is positive on the split axis
     // (a zero component goes right, as in the reference code).
@@ -44,76 +40,74 @@ pub fn hapala<S: Stats, const ANY: bool>(sp: &SparseBvh, ray: &Ray, stats: &mut 
             left + 1
         }
     };
-    if br.test(&nodes[0].bounds, tmin, tmax) != f32::INFINITY {
-        tally.nodes += 1;
-        if S::LOGS {
-            stats.visit(sp.ids[0]);
-        }
-        if nodes[0].is_leaf() {
-            intersect_leaf::<ANY>(
-                &sp.index,
-                &sp.triangles,
-                nodes[0].target(),
-                ray,
-                &mut tmax,
-                &mut best,
-                &mut tally,
-            );
-        } else {
-            let mut cur = near_child(0);
-            let mut from = From::Parent;
-            loop {
-                if from == From::Child {
-                    if cur == 0 {
-                        break;
-                    }
-                    let p = sp.parent(cur);
-                    if cur == near_child(p) {
-                        cur = sibling(cur);
-                        from = From::Sibling;
-                    } else {
-                        cur = p;
-                    }
-                    continue;
+    tally.nodes += 1;
+    if S::LOGS {
+        stats.visit(sp.ids[0]);
+    }
+    if nodes[0].is_leaf() {
+        intersect_leaf::<ANY>(
+            &sp.index,
+            &sp.triangles,
+            nodes[0].target(),
+            ray,
+            &mut tmax,
+            &mut best,
+            &mut tally,
+        );
+    } else {
+        let mut cur = near_child(0);
+        let mut from = From::Parent;
+        loop {
+            if from == From::Child {
+                if cur == 0 {
+                    break;
                 }
-                // Arriving at an untested child: test its box now, with the
-                // ray as short as it has become.
-                let n = &nodes[cur as usize];
-                tally.planes += 6;
-                let hit = br.test(&n.bounds, tmin, tmax) != f32::INFINITY;
-                if hit && !n.is_leaf() {
-                    tally.nodes += 1;
-                    if S::LOGS {
-                        stats.visit(sp.ids[cur as usize]);
-                    }
-                    cur = near_child(cur);
-                    from = From::Parent;
-                    continue;
-                }
-                if hit {
-                    tally.nodes += 1;
-                    if S::LOGS {
-                        stats.visit(sp.ids[cur as usize]);
-                    }
-                    if intersect_leaf::<ANY>(
-                        &sp.index,
-                        &sp.triangles,
-                        n.link & !LAST,
-                        ray,
-                        &mut tmax,
-                        &mut best,
-                        &mut tally,
-                    ) {
-                        break;
-                    }
-                }
-                if from == From::Parent {
+                let p = sp.parent(cur);
+                if cur == near_child(p) {
                     cur = sibling(cur);
                     from = From::Sibling;
                 } else {
-                    cur = sp.parent(cur);
-                    from = From::Child;
+                    cur = p;
                 }
+                continue;
+            }
+            // Arriving at an untested child: test its box now, with the
+            // ray as short as it has become.
+            let n = &nodes[cur as usize];
+            tally.planes += 6;
+            let hit = br.test(&n.bounds, tmin, tmax) != f32::INFINITY;
+            if hit && !n.is_leaf() {
+                tally.nodes += 1;
+                if S::LOGS {
+                    stats.visit(sp.ids[cur as usize]);
+                }
+                cur = near_child(cur);
+                from = From::Parent;
+                continue;
+            }
+            if hit {
+                tally.nodes += 1;
+                if S::LOGS {
+                    stats.visit(sp.ids[cur as usize]);
+                }
+                if intersect_leaf::<ANY>(
+                    &sp.index,
+                    &sp.triangles,
+                    n.link & !LAST,
+                    ray,
+                    &mut tmax,
+                    &mut best,
+                    &mut tally,
+                ) {
+                    break;
+                }
+            }
+            if from == From::Parent {
+                cur = sibling(cur);
+                from = From::Sibling;
+            } else {
+                cur = sp.parent(cur);
+                from = From::Child;
             }
         }
     }

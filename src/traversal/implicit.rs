@@ -4,10 +4,10 @@
 //! ascending is one count-trailing-zeros and shifts. Both visit exactly the
 //! nodes STACK visits, in the same order.
 
-use super::leaf::{intersect_leaf, test_children};
+use super::leaf::{enter, intersect_leaf, test_children};
 use crate::accel::implicit_bvh::ImplicitBvh;
-use crate::geometry::{BoxRay, Hit, Ray};
-use crate::stats::{Stats, Tally};
+use crate::geometry::{Hit, Ray};
+use crate::stats::Stats;
 
 /// Algorithm 2: `levelStart` (2^depth), `levelIndex` (the left-first index
 /// within the level) and `swapMask` (bit i set if level depth-i-1 took the
@@ -23,68 +23,62 @@ pub fn implicit_a<S: Stats, const ANY: bool>(
         return None;
     }
     let slots = im.slots();
-    let br = BoxRay::new(ray);
+    let (br, mut tally) = enter(ray, &slots[1].bounds, stats)?;
     let tmin = ray.tmin;
     let mut tmax = ray.tmax;
-    let mut tally = Tally {
-        planes: 6,
-        ..Tally::default()
-    };
     let mut best = None;
-    if br.test(&slots[1].bounds, tmin, tmax) != f32::INFINITY {
-        let (mut level_start, mut level_index, mut swap_mask) = (1u32, 0u32, 0u32);
-        loop {
-            let node = level_start
-                .wrapping_add(level_index)
-                .wrapping_sub(1)
-                .wrapping_add(swap_mask)
-                .wrapping_sub(2 * (level_index & swap_mask));
-            // Heap position p lives in slot p + 1; its children in slots 2p+2, 2p+3.
-            let n = &slots[node as usize + 1];
-            tally.nodes += 1;
-            if S::LOGS {
-                stats.visit(n.extra);
-            }
-            if n.is_leaf() {
-                if intersect_leaf::<ANY>(
-                    &im.index,
-                    &im.triangles,
-                    n.target(),
-                    ray,
-                    &mut tmax,
-                    &mut best,
-                    &mut tally,
-                ) {
-                    break;
-                }
-            } else {
-                tally.planes += 12;
-                let [tl, tr] = test_children(&br, slots, 2 * node as usize + 2, tmin, tmax);
-                let (hit_l, hit_r) = (tl != f32::INFINITY, tr != f32::INFINITY);
-                if hit_l && hit_r {
-                    level_start <<= 1;
-                    level_index <<= 1;
-                    swap_mask = swap_mask << 1 | (tr < tl) as u32;
-                    continue;
-                }
-                if hit_l || hit_r {
-                    // One child rejected: levelIndex moves past it, and the
-                    // swap bit (right-first, then flipped) ends up set when
-                    // the left child is the one taken.
-                    level_start <<= 1;
-                    level_index = (level_index << 1) + 1;
-                    swap_mask = swap_mask << 1 | hit_l as u32;
-                    continue;
-                }
-            }
-            level_index += 1;
-            let up = level_index.trailing_zeros();
-            level_start >>= up;
-            level_index >>= up;
-            swap_mask >>= up;
-            if level_start <= 1 {
+    let (mut level_start, mut level_index, mut swap_mask) = (1u32, 0u32, 0u32);
+    loop {
+        let node = level_start
+            .wrapping_add(level_index)
+            .wrapping_sub(1)
+            .wrapping_add(swap_mask)
+            .wrapping_sub(2 * (level_index & swap_mask));
+        // Heap position p lives in slot p + 1; its children in slots 2p+2, 2p+3.
+        let n = &slots[node as usize + 1];
+        tally.nodes += 1;
+        if S::LOGS {
+            stats.visit(n.extra);
+        }
+        if n.is_leaf() {
+            if intersect_leaf::<ANY>(
+                &im.index,
+                &im.triangles,
+                n.target(),
+                ray,
+                &mut tmax,
+                &mut best,
+                &mut tally,
+            ) {
                 break;
             }
+        } else {
+            tally.planes += 12;
+            let [tl, tr] = test_children(&br, slots, 2 * node as usize + 2, tmin, tmax);
+            let (hit_l, hit_r) = (tl != f32::INFINITY, tr != f32::INFINITY);
+            if hit_l && hit_r {
+                level_start <<= 1;
+                level_index <<= 1;
+                swap_mask = swap_mask << 1 | (tr < tl) as u32;
+                continue;
+            }
+            if hit_l || hit_r {
+                // One child rejected: levelIndex moves past it, and the
+                // swap bit (right-first, then flipped) ends up set when
+                // the left child is the one taken.
+                level_start <<= 1;
+                level_index = (level_index << 1) + 1;
+                swap_mask = swap_mask << 1 | hit_l as u32;
+                continue;
+            }
+        }
+        level_index += 1;
+        let up = level_index.trailing_zeros();
+        level_start >>= up;
+        level_index >>= up;
+        swap_mask >>= up;
+        if level_start <= 1 {
+            break;
         }
     }
     stats.add(tally);
@@ -105,59 +99,53 @@ pub fn implicit_b<S: Stats, const ANY: bool>(
         return None;
     }
     let slots = im.slots();
-    let br = BoxRay::new(ray);
+    let (br, mut tally) = enter(ray, &slots[1].bounds, stats)?;
     let tmin = ray.tmin;
     let mut tmax = ray.tmax;
-    let mut tally = Tally {
-        planes: 6,
-        ..Tally::default()
-    };
     let mut best = None;
-    if br.test(&slots[1].bounds, tmin, tmax) != f32::INFINITY {
-        let (mut index, mut level_index) = (1u32, 0u32);
-        loop {
-            // Node `index - 1` lives in slot `index`.
-            let n = &slots[index as usize];
-            tally.nodes += 1;
-            if S::LOGS {
-                stats.visit(n.extra);
-            }
-            if n.is_leaf() {
-                if intersect_leaf::<ANY>(
-                    &im.index,
-                    &im.triangles,
-                    n.target(),
-                    ray,
-                    &mut tmax,
-                    &mut best,
-                    &mut tally,
-                ) {
-                    break;
-                }
-            } else {
-                tally.planes += 12;
-                let [tl, tr] = test_children(&br, slots, 2 * index as usize, tmin, tmax);
-                let (hit_l, hit_r) = (tl != f32::INFINITY, tr != f32::INFINITY);
-                if hit_l && hit_r {
-                    index = index << 1 | (tr < tl) as u32;
-                    level_index <<= 1;
-                    continue;
-                }
-                if hit_l || hit_r {
-                    index = index << 1 | hit_r as u32;
-                    level_index = (level_index << 1) + 1;
-                    continue;
-                }
-            }
-            level_index += 1;
-            let up = level_index.trailing_zeros();
-            index >>= up;
-            level_index >>= up;
-            if index <= 1 {
+    let (mut index, mut level_index) = (1u32, 0u32);
+    loop {
+        // Node `index - 1` lives in slot `index`.
+        let n = &slots[index as usize];
+        tally.nodes += 1;
+        if S::LOGS {
+            stats.visit(n.extra);
+        }
+        if n.is_leaf() {
+            if intersect_leaf::<ANY>(
+                &im.index,
+                &im.triangles,
+                n.target(),
+                ray,
+                &mut tmax,
+                &mut best,
+                &mut tally,
+            ) {
                 break;
             }
-            index ^= 1;
+        } else {
+            tally.planes += 12;
+            let [tl, tr] = test_children(&br, slots, 2 * index as usize, tmin, tmax);
+            let (hit_l, hit_r) = (tl != f32::INFINITY, tr != f32::INFINITY);
+            if hit_l && hit_r {
+                index = index << 1 | (tr < tl) as u32;
+                level_index <<= 1;
+                continue;
+            }
+            if hit_l || hit_r {
+                index = index << 1 | hit_r as u32;
+                level_index = (level_index << 1) + 1;
+                continue;
+            }
         }
+        level_index += 1;
+        let up = level_index.trailing_zeros();
+        index >>= up;
+        level_index >>= up;
+        if index <= 1 {
+            break;
+        }
+        index ^= 1;
     }
     stats.add(tally);
     best

@@ -3,7 +3,7 @@
 
 use crate::accel::own_box_node::OwnBoxNode;
 use crate::geometry::{BoxRay, Hit, Ray, Triangle};
-use crate::stats::Tally;
+use crate::stats::{Stats, Tally};
 
 /// Index-list bit: the last triangle of a leaf.
 pub const LAST: u32 = 1 << 31;
@@ -42,6 +42,23 @@ pub fn intersect_leaf<const ANY: bool>(
         }
         i += 1;
     }
+}
+
+/// The root box test every BVH traversal begins with (6 plane tests): the
+/// ray's box constants and its tally, or `None` when the ray misses the
+/// scene box (the tally then already handed to `stats`).
+#[inline(always)]
+pub fn enter<S: Stats>(ray: &Ray, root: &[f32; 6], stats: &mut S) -> Option<(BoxRay, Tally)> {
+    let br = BoxRay::new(ray);
+    let tally = Tally {
+        planes: 6,
+        ..Tally::default()
+    };
+    if br.test(root, ray.tmin, ray.tmax) == f32::INFINITY {
+        stats.add(tally);
+        return None;
+    }
+    Some((br, tally))
 }
 
 /// Entry distances (`+inf` on a miss) of the sibling pair whose left node is

@@ -4,13 +4,13 @@
 //! only: a popped node is always visited, even if its box now lies beyond
 //! the closest hit. Ties between the two children go to the left.
 
-use super::leaf::{intersect_leaf, test_children};
+use super::leaf::{enter, intersect_leaf, test_children};
 use crate::accel::binary_bvh::{
     BinaryBvh, NodeRef, INNER_WORDS, LAST, LEFT_LEAF, OFFSET_MASK, RIGHT_LEAF,
 };
 use crate::accel::sparse_bvh::SparseBvh;
-use crate::geometry::{BoxRay, Hit, Ray};
-use crate::stats::{Stats, Tally};
+use crate::geometry::{Hit, Ray};
+use crate::stats::Stats;
 use crate::traversal::with_stack;
 
 /// Closest hit (`ANY = false`) or any hit (`ANY = true`) over the
@@ -29,17 +29,9 @@ fn trace_n<S: Stats, const ANY: bool, const N: usize>(
     if bvh.is_empty() {
         return None;
     }
-    let br = BoxRay::new(ray);
+    let (br, mut tally) = enter(ray, &bvh.root_bounds.to_array(), stats)?;
     let tmin = ray.tmin;
     let mut tmax = ray.tmax;
-    let mut tally = Tally {
-        planes: 6,
-        ..Tally::default()
-    };
-    if br.test(&bvh.root_bounds.to_array(), tmin, tmax) == f32::INFINITY {
-        stats.add(tally);
-        return None;
-    }
     let words = &bvh.words[..];
     let mut best: Option<Hit> = None;
     let mut stack = [0 as NodeRef; N];
@@ -130,17 +122,9 @@ fn trace_sparse_n<S: Stats, const ANY: bool, const N: usize>(
         return None;
     }
     let nodes = &sp_bvh.nodes[..];
-    let br = BoxRay::new(ray);
+    let (br, mut tally) = enter(ray, &nodes[0].bounds, stats)?;
     let tmin = ray.tmin;
     let mut tmax = ray.tmax;
-    let mut tally = Tally {
-        planes: 6,
-        ..Tally::default()
-    };
-    if br.test(&nodes[0].bounds, tmin, tmax) == f32::INFINITY {
-        stats.add(tally);
-        return None;
-    }
     let mut best: Option<Hit> = None;
     let mut stack = [0u32; N];
     let mut sp = 0;
