@@ -5,8 +5,8 @@ use crate::accel::own_box_node::OwnBoxNode;
 use crate::geometry::{BoxRay, Hit, Ray, Triangle};
 use crate::stats::{Stats, Tally};
 
-/// Index-list bit: the last triangle of a leaf.
-pub const LAST: u32 = 1 << 31;
+/// Index-list bit: the last triangle of a leaf (one list format for every layout).
+pub use crate::accel::binary_bvh::LAST;
 
 /// Tests the triangles of the leaf whose list starts at `first` against
 /// `[ray.tmin, *tmax]`. For closest hit (`ANY = false`) the nearest hit is

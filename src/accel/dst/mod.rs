@@ -24,7 +24,7 @@ use serde::Serialize;
 use std::sync::Arc;
 
 /// Index-list bit: the last triangle of a leaf.
-pub const LAST: u32 = 1 << 31;
+pub use super::binary_bvh::LAST;
 
 /// The paper's Tables 1–3 for one tree.
 #[derive(Clone, Debug, Default, Serialize, PartialEq)]
