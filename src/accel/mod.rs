@@ -4,6 +4,7 @@
 
 pub(crate) mod binary_bvh;
 mod brute;
+pub mod cbvh;
 pub mod dst;
 pub mod implicit_bvh;
 pub(crate) mod own_box_node;
@@ -12,6 +13,7 @@ pub mod sparse_bvh;
 
 pub use binary_bvh::BinaryBvh;
 pub use brute::BruteForce;
+pub use cbvh::CompactBvh;
 pub use dst::DualSplitTree;
 pub use implicit_bvh::ImplicitBvh;
 pub use select::{

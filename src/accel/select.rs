@@ -4,7 +4,7 @@
 
 use super::dst::DstStats;
 use super::implicit_bvh::DEFAULT_RESERVATION_LIMIT;
-use super::{Accel, BinaryBvh, BruteForce, DualSplitTree, ImplicitBvh, SparseBvh};
+use super::{Accel, BinaryBvh, BruteForce, CompactBvh, DualSplitTree, ImplicitBvh, SparseBvh};
 use crate::bvh::Bvh;
 use crate::error::{Error, Result};
 use crate::geometry::Triangle;
@@ -92,6 +92,7 @@ impl StructureKind {
             StructureKind::Bvh
                 | StructureKind::Dst
                 | StructureKind::DstSimilar
+                | StructureKind::Cbvh
                 | StructureKind::Brute
         )
     }
@@ -184,6 +185,7 @@ pub enum Built {
     ImplicitA(OnImplicit<ImplicitA>),
     ImplicitB(OnImplicit<ImplicitB>),
     Dst(DualSplitTree),
+    Cbvh(CompactBvh),
     Brute(BruteForce),
 }
 
@@ -299,6 +301,13 @@ impl Built {
                 i.dst = Some(t.stats.clone());
                 (Built::Dst(t), i)
             }
+            (StructureKind::Cbvh, _) => {
+                let c = CompactBvh::from_bvh(bvh, triangles)?;
+                let mut i = info("compact", c.node_bytes(), c.index_bytes());
+                i.inner_nodes = c.nodes().len();
+                i.leaves = c.leaves();
+                (Built::Cbvh(c), i)
+            }
             (StructureKind::Brute, _) => {
                 let b = BruteForce::new(triangles);
                 let mut i = info("triangles", 0, b.bytes());
@@ -348,6 +357,7 @@ impl Built {
             Built::ImplicitA(a) => w.run(a),
             Built::ImplicitB(a) => w.run(a),
             Built::Dst(a) => w.run(a),
+            Built::Cbvh(a) => w.run(a),
             Built::Brute(a) => w.run(a),
         }
     }

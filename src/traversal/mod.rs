@@ -3,6 +3,7 @@
 //! the sparse and implicit layouts. Each algorithm is a zero-sized type, and
 //! [`OnSparse`] / [`OnImplicit`] pair it with a layout into an [`Accel`].
 
+pub(crate) mod cbvh;
 pub(crate) mod dst;
 mod hapala;
 mod implicit;
