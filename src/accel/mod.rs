@@ -2,6 +2,7 @@
 //! [`crate::bvh::Bvh`] (or, for the oracle, from nothing) and answers
 //! [`Accel`].
 
+pub mod bih;
 pub(crate) mod binary_bvh;
 mod brute;
 pub mod cbvh;
@@ -11,6 +12,7 @@ pub(crate) mod own_box_node;
 mod select;
 pub mod sparse_bvh;
 
+pub use bih::Bih;
 pub use binary_bvh::BinaryBvh;
 pub use brute::BruteForce;
 pub use cbvh::CompactBvh;

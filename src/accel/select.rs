@@ -4,7 +4,7 @@
 
 use super::dst::DstStats;
 use super::implicit_bvh::DEFAULT_RESERVATION_LIMIT;
-use super::{Accel, BinaryBvh, BruteForce, CompactBvh, DualSplitTree, ImplicitBvh, SparseBvh};
+use super::{Accel, Bih, BinaryBvh, BruteForce, CompactBvh, DualSplitTree, ImplicitBvh, SparseBvh};
 use crate::bvh::Bvh;
 use crate::error::{Error, Result};
 use crate::geometry::Triangle;
@@ -92,6 +92,7 @@ impl StructureKind {
             StructureKind::Bvh
                 | StructureKind::Dst
                 | StructureKind::DstSimilar
+                | StructureKind::Bih
                 | StructureKind::Cbvh
                 | StructureKind::Brute
         )
@@ -185,6 +186,7 @@ pub enum Built {
     ImplicitA(OnImplicit<ImplicitA>),
     ImplicitB(OnImplicit<ImplicitB>),
     Dst(DualSplitTree),
+    Bih(Bih),
     Cbvh(CompactBvh),
     Brute(BruteForce),
 }
@@ -210,7 +212,8 @@ pub struct StructureInfo {
     pub state_bytes: Option<usize>,
     /// Time to derive it from the canonical BVH.
     pub conversion_seconds: f64,
-    /// Node kinds and carving levels of a dual-split tree.
+    /// Node kinds and carving levels of a dual-split tree (or a BIH: its
+    /// split nodes and single-axis carving, i.e. clip, nodes).
     pub dst: Option<DstStats>,
 }
 
@@ -301,6 +304,15 @@ impl Built {
                 i.dst = Some(t.stats.clone());
                 (Built::Dst(t), i)
             }
+            (StructureKind::Bih, _) => {
+                let b = Bih::from_bvh(bvh, triangles)?;
+                let s = b.stats();
+                let mut i = info("bih", s.node_bytes, s.index_bytes);
+                i.inner_nodes = s.split_nodes + s.carve_single - s.carving_leaves;
+                i.leaves = s.leaves();
+                i.dst = Some(s.clone());
+                (Built::Bih(b), i)
+            }
             (StructureKind::Cbvh, _) => {
                 let c = CompactBvh::from_bvh(bvh, triangles)?;
                 let mut i = info("compact", c.node_bytes(), c.index_bytes());
@@ -357,6 +369,7 @@ impl Built {
             Built::ImplicitA(a) => w.run(a),
             Built::ImplicitB(a) => w.run(a),
             Built::Dst(a) => w.run(a),
+            Built::Bih(a) => w.run(a),
             Built::Cbvh(a) => w.run(a),
             Built::Brute(a) => w.run(a),
         }

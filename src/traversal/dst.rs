@@ -5,54 +5,15 @@
 //! are culled against the closest hit. Because regions may overlap, the
 //! traversal runs until the stack is empty.
 //!
-//! Plane distances are widened by `2γ₃` of themselves, entries down and
-//! exits up, as the box test's exits are: a hit on a region's boundary is
-//! never lost to rounding.
+//! Plane distances are widened as [`super::interval`] says.
 
 use super::leaf::intersect_leaf;
 use super::with_stack;
 use crate::accel::dst::node::DstNode;
 use crate::accel::dst::DualSplitTree;
-use crate::geometry::aabb::{widen_down, widen_up};
+use super::interval::{entry, exit, lower, nonempty, raise};
 use crate::geometry::{BoxRay, Hit, Ray};
 use crate::stats::{Stats, Tally};
-
-#[inline(always)]
-fn entry(t: f32) -> f32 {
-    widen_down(t)
-}
-
-#[inline(always)]
-fn exit(t: f32) -> f32 {
-    widen_up(t)
-}
-
-/// Whether `[tmin, tmax]` holds a point of the ray: an interval starting at
-/// +inf (a ray parallel to a plane, outside it) does not.
-#[inline(always)]
-fn nonempty(tmin: f32, tmax: f32) -> bool {
-    tmin <= tmax && tmin < f32::INFINITY
-}
-
-/// `max(t, acc)` keeping `acc` when `t` is NaN (a ray in the plane).
-#[inline(always)]
-fn raise(acc: f32, t: f32) -> f32 {
-    if t > acc {
-        t
-    } else {
-        acc
-    }
-}
-
-/// `min(t, acc)` keeping `acc` when `t` is NaN.
-#[inline(always)]
-fn lower(acc: f32, t: f32) -> f32 {
-    if t < acc {
-        t
-    } else {
-        acc
-    }
-}
 
 #[inline]
 pub fn trace<S: Stats, const ANY: bool>(

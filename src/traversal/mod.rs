@@ -7,6 +7,7 @@ pub(crate) mod cbvh;
 pub(crate) mod dst;
 mod hapala;
 mod implicit;
+pub(crate) mod interval;
 mod laine;
 pub(crate) mod leaf;
 mod sparse;

@@ -7,7 +7,7 @@
 //! for bit; the similar conversion tracks the actual regions and lets SAH
 //! leave planes for deeper levels. Subtrees convert in parallel.
 
-use super::plan::{best_plan, CarveOp, Plan};
+use super::plan::{best_plan, CarveOp, Plan, Rules};
 use crate::bvh::{Bvh, NodeKind};
 use crate::geometry::Aabb;
 
@@ -31,8 +31,8 @@ pub enum Tree {
 const PARALLEL: u32 = 4096;
 
 /// Converts BVH node `id`, whose region is `cell` (it contains the node's
-/// box). `complete` selects the identical conversion.
-pub fn convert(bvh: &Bvh, id: u32, cell: Aabb, complete: bool, counts: &[u32]) -> Tree {
+/// box), under `rules`.
+pub fn convert(bvh: &Bvh, id: u32, cell: Aabb, rules: Rules, counts: &[u32]) -> Tree {
     let node = &bvh.nodes[id as usize];
     let [l, r] = match node.kind {
         NodeKind::Leaf { .. } => {
@@ -55,8 +55,8 @@ pub fn convert(bvh: &Bvh, id: u32, cell: Aabb, complete: bool, counts: &[u32]) -
             fcell.max[a] = f.max[a];
             let mut scell = cell;
             scell.min[a] = s.min[a];
-            let pf = best_plan(&fcell, f, counts[order[0] as usize], area, complete);
-            let ps = best_plan(&scell, s, counts[order[1] as usize], area, complete);
+            let pf = best_plan(&fcell, f, counts[order[0] as usize], area, rules);
+            let ps = best_plan(&scell, s, counts[order[1] as usize], area, rules);
             let cost = pf.cost + ps.cost;
             if best.as_ref().is_none_or(|b| cost < b.0) {
                 best = Some((cost, axis, order, [pf, ps]));
@@ -73,7 +73,7 @@ pub fn convert(bvh: &Bvh, id: u32, cell: Aabb, complete: bool, counts: &[u32]) -
         let inner = if bvh.nodes[child as usize].is_leaf() {
             Tree::Leaf { node: child }
         } else {
-            convert(bvh, child, plan.cell, complete, counts)
+            convert(bvh, child, plan.cell, rules, counts)
         };
         Tree::chain(plan.ops, inner)
     };

@@ -13,7 +13,7 @@ pub mod plan;
 
 use self::convert::{convert, triangle_counts, Tree};
 use self::node::DstNode;
-use self::plan::CarveOp;
+use self::plan::{CarveOp, Rules};
 use super::Accel;
 use crate::bvh::{Bvh, ROOT};
 use crate::error::{Error, Result};
@@ -62,7 +62,7 @@ pub struct DualSplitTree {
     pub(crate) index: Vec<u32>,
     pub(crate) triangles: Arc<[Triangle]>,
     pub(crate) root_bounds: Aabb,
-    similar: bool,
+    rules: Rules,
     /// The BVH's depth: a bound on the traversal stack.
     pub(crate) depth: u32,
     pub stats: DstStats,
@@ -73,22 +73,34 @@ impl DualSplitTree {
     /// otherwise the identical one (§4.2.1). Refuses a BVH deeper than the
     /// traversal stack and a tree whose offsets pass 26 bits.
     pub fn from_bvh(bvh: &Bvh, triangles: Arc<[Triangle]>, similar: bool) -> Result<Self> {
+        let rules = if similar {
+            Rules::SIMILAR
+        } else {
+            Rules::IDENTICAL
+        };
+        Self::with_rules(bvh, triangles, rules)
+    }
+
+    /// Converts `bvh` under `rules` (also used for the BIH, which is a
+    /// dual-split tree without dual-axis nodes: [`crate::accel::Bih`]).
+    pub fn with_rules(bvh: &Bvh, triangles: Arc<[Triangle]>, rules: Rules) -> Result<Self> {
         let start = std::time::Instant::now();
         if bvh.stats.depth as usize >= MAX_STACK_DEPTH {
             return Err(Error::Limit(format!(
-                "BVH depth {} exceeds the dual-split traversal's limit of {} levels; use the hybrid builder",
+                "BVH depth {} exceeds the {} traversal's limit of {} levels; use the hybrid builder",
                 bvh.stats.depth,
+                name(rules),
                 MAX_STACK_DEPTH - 1
             )));
         }
         let counts = triangle_counts(bvh);
-        let tree = convert(bvh, ROOT, bvh.bounds(), !similar, &counts);
+        let tree = convert(bvh, ROOT, bvh.bounds(), rules, &counts);
         let mut t = DualSplitTree {
             words: Vec::new(),
             index: Vec::with_capacity(bvh.prims.len()),
             triangles,
             root_bounds: bvh.bounds(),
-            similar,
+            rules,
             depth: bvh.stats.depth,
             stats: DstStats::default(),
         };
@@ -114,7 +126,12 @@ impl DualSplitTree {
     }
 
     pub fn is_similar(&self) -> bool {
-        self.similar
+        !self.rules.complete
+    }
+
+    /// The rules it was converted under.
+    pub fn rules(&self) -> Rules {
+        self.rules
     }
 
     pub fn is_empty(&self) -> bool {
@@ -208,6 +225,15 @@ impl DualSplitTree {
     }
 }
 
+/// The structure's name for a conversion's rules.
+fn name(rules: Rules) -> &'static str {
+    match (rules.complete, rules.dual) {
+        (true, true) => "dst",
+        (false, _) => "dst-similar",
+        (true, false) => "bih",
+    }
+}
+
 /// Counts node kinds and carving levels; `levels` counts the carving nodes
 /// in the chain below a splitting node's child.
 fn count(t: &Tree, s: &mut DstStats, levels: Option<usize>) {
@@ -246,11 +272,7 @@ fn count(t: &Tree, s: &mut DstStats, levels: Option<usize>) {
 
 impl Accel for DualSplitTree {
     fn name(&self) -> &'static str {
-        if self.similar {
-            "dst-similar"
-        } else {
-            "dst"
-        }
+        name(self.rules)
     }
 
     fn bytes(&self) -> usize {

@@ -96,6 +96,34 @@ pub fn excess_planes(cell: &Aabb, target: &Aabb) -> Vec<Plane> {
     v
 }
 
+/// What a conversion may do when it carves.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Rules {
+    /// Carve every excess plane (identical partitioning) rather than let
+    /// SAH leave some for deeper levels.
+    pub complete: bool,
+    /// Dual-axis carving nodes are allowed (not in a BIH).
+    pub dual: bool,
+}
+
+impl Rules {
+    /// The identical conversion (§4.2.1).
+    pub const IDENTICAL: Rules = Rules {
+        complete: true,
+        dual: true,
+    };
+    /// The similar conversion (§4.2.2).
+    pub const SIMILAR: Rules = Rules {
+        complete: false,
+        dual: true,
+    };
+    /// A BIH with clip nodes: single-axis carving only, identical.
+    pub const BIH: Rules = Rules {
+        complete: true,
+        dual: false,
+    };
+}
+
 /// The chosen carving nodes, their cost and the region they leave.
 #[derive(Clone, Debug)]
 pub struct Plan {
@@ -106,16 +134,14 @@ pub struct Plan {
 
 /// The cheapest carving under a child whose region is `cell` and whose
 /// content is bounded by `target`, with `triangles` triangles, below a
-/// splitting node of area `parent_area`. With `complete`, every excess plane
-/// must be carved (identical partitioning); otherwise SAH may leave planes
-/// for deeper levels (the similar conversion). Ties keep fewer nodes, then
+/// splitting node of area `parent_area`, under `rules`. Ties keep fewer nodes, then
 /// the first sequence found (single-axis before dual, lower axes first).
 pub fn best_plan(
     cell: &Aabb,
     target: &Aabb,
     triangles: u32,
     parent_area: f32,
-    complete: bool,
+    rules: Rules,
 ) -> Plan {
     let planes = excess_planes(cell, target);
     let inv = if parent_area > 0.0 {
@@ -132,7 +158,7 @@ pub fn best_plan(
         0.0,
         triangles as f32,
         inv,
-        complete,
+        rules,
         &mut ops,
         &mut best,
     );
@@ -147,10 +173,11 @@ fn search(
     cost: f32,
     tris: f32,
     inv: f32,
-    complete: bool,
+    rules: Rules,
     ops: &mut Vec<CarveOp>,
     best: &mut Option<Plan>,
 ) {
+    let complete = rules.complete;
     if left == 0 || !complete {
         let total = cost + cell.area() * inv * tris;
         let better = match best {
@@ -209,13 +236,16 @@ fn search(
             cost + node_cost * SIGMA_SINGLE,
             tris,
             inv,
-            complete,
+            rules,
             ops,
             best,
         );
         ops.pop();
     }
     // Dual-axis: two remaining planes on different axes.
+    if !rules.dual {
+        return;
+    }
     for i in 0..planes.len() {
         for j in i + 1..planes.len() {
             if left >> i & 1 == 0 || left >> j & 1 == 0 || planes[i].axis == planes[j].axis {
@@ -233,7 +263,7 @@ fn search(
                 cost + node_cost * SIGMA_DUAL,
                 tris,
                 inv,
-                complete,
+                rules,
                 ops,
                 best,
             );
@@ -252,7 +282,7 @@ mod tests {
         let cell = Aabb::new(Vec3::ZERO, Vec3::splat(10.0));
         // Five excess planes (one side already shared, as after a split).
         let target = Aabb::new(Vec3::new(0.0, 1.0, 2.0), Vec3::new(9.0, 8.0, 7.0));
-        let p = best_plan(&cell, &target, 4, cell.area(), true);
+        let p = best_plan(&cell, &target, 4, cell.area(), Rules::IDENTICAL);
         assert_eq!(p.cell, target);
         assert!(p.ops.len() <= 3);
         let mut c = cell;
@@ -265,7 +295,7 @@ mod tests {
     #[test]
     fn nothing_to_carve_costs_the_leaf_only() {
         let b = Aabb::new(Vec3::ZERO, Vec3::ONE);
-        let p = best_plan(&b, &b, 3, b.area() * 2.0, true);
+        let p = best_plan(&b, &b, 3, b.area() * 2.0, Rules::IDENTICAL);
         assert!(p.ops.is_empty());
         assert!((p.cost - 1.5).abs() < 1e-6);
     }
@@ -274,18 +304,23 @@ mod tests {
     fn one_plane_per_axis_on_two_axes_prefers_a_dual_node() {
         let cell = Aabb::new(Vec3::ZERO, Vec3::splat(10.0));
         let target = Aabb::new(Vec3::new(2.0, 0.0, 0.0), Vec3::new(10.0, 7.0, 10.0));
-        let p = best_plan(&cell, &target, 100, cell.area(), true);
+        let p = best_plan(&cell, &target, 100, cell.area(), Rules::IDENTICAL);
         assert_eq!(p.ops.len(), 1);
         assert!(matches!(p.ops[0], CarveOp::Dual { .. }));
+        // A BIH needs one clip node per axis instead.
+        let p = best_plan(&cell, &target, 100, cell.area(), Rules::BIH);
+        assert_eq!(p.ops.len(), 2);
+        assert!(p.ops.iter().all(|o| matches!(o, CarveOp::Single { .. })));
+        assert_eq!(p.cell, target);
     }
 
     #[test]
     fn similar_plans_may_skip_a_sliver() {
         let cell = Aabb::new(Vec3::ZERO, Vec3::splat(10.0));
         let target = Aabb::new(Vec3::new(0.001, 0.0, 0.0), Vec3::splat(10.0));
-        let p = best_plan(&cell, &target, 1, cell.area(), false);
+        let p = best_plan(&cell, &target, 1, cell.area(), Rules::SIMILAR);
         assert!(p.ops.is_empty(), "{:?}", p.ops);
         assert_eq!(p.cell, cell);
-        assert_eq!(best_plan(&cell, &target, 1, cell.area(), true).ops.len(), 1);
+        assert_eq!(best_plan(&cell, &target, 1, cell.area(), Rules::IDENTICAL).ops.len(), 1);
     }
 }
