@@ -234,9 +234,9 @@ fn failures_are_one_clear_line_and_leave_no_output() {
     );
     fails(&["render", "-s", "chess:1", "-o", "a.png"], 1, "size");
     fails(
-        &["render", "-a", "bih", "-o", "a.png"],
+        &["render", "-a", "bih", "-t", "sparse", "-o", "a.png"],
         1,
-        "not implemented yet",
+        "applies to the 'bvh' structure only",
     );
     // A tree too deep for the implicit layout (the SAH build of a 1M-triangle
     // hairball is not; this exercises the limit option instead).

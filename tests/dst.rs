@@ -4,7 +4,9 @@
 mod common;
 
 use raytree::accel::dst::node::DstNode;
+use raytree::accel::dst::plan::Rules;
 use raytree::accel::dst::LAST;
+use raytree::accel::Bih;
 use raytree::accel::DualSplitTree;
 use raytree::prelude::*;
 use std::collections::HashMap;
@@ -120,8 +122,22 @@ fn identical_conversion_reproduces_every_bvh_leaf_box_exactly() {
                 .filter(|(_, n)| n.is_leaf())
                 .flat_map(|(i, n)| bvh.leaf_prims(n).iter().map(move |&p| (p, i as u32)))
                 .collect();
-            for similar in [false, true] {
-                let t = DualSplitTree::from_bvh(&bvh, scene.triangles.clone(), similar).unwrap();
+            let inner_boxes: std::collections::HashSet<[u32; 6]> = bvh
+                .nodes
+                .iter()
+                .filter(|n| !n.is_leaf())
+                .map(|n| n.bounds.to_array().map(f32::to_bits))
+                .collect();
+            // The BIH is a dual-split tree without dual-axis nodes: the same
+            // walk checks it.
+            for rules in [Rules::IDENTICAL, Rules::SIMILAR, Rules::BIH] {
+                let similar = !rules.complete;
+                let t = DualSplitTree::with_rules(&bvh, scene.triangles.clone(), rules).unwrap();
+                if !rules.dual {
+                    assert_eq!(t.stats.carve_dual, 0);
+                    let bih = Bih::from_bvh(&bvh, scene.triangles.clone()).unwrap();
+                    assert_eq!(bih.tree().words(), t.words());
+                }
                 let mut seen = vec![0; bvh.nodes.len()];
                 let mut split_regions = Vec::new();
                 let words = walk(
@@ -164,6 +180,18 @@ fn identical_conversion_reproduces_every_bvh_leaf_box_exactly() {
                         "BVH node {i} seen {} times",
                         seen[i]
                     );
+                }
+                // One splitting node per BVH inner node; with identical
+                // partitioning its region is that node's box.
+                assert_eq!(split_regions.len(), bvh.stats.inner_nodes);
+                if !similar {
+                    for r in &split_regions {
+                        assert!(
+                            inner_boxes.contains(&r.map(f32::to_bits)),
+                            "{}: a split region {r:?} is no BVH box",
+                            scene.name
+                        );
+                    }
                 }
             }
         }

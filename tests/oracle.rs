@@ -3,7 +3,7 @@
 mod common;
 
 use rayon::prelude::*;
-use raytree::accel::DualSplitTree;
+use raytree::accel::{Built, StructureKind, TraversalKind, WithAccel};
 use raytree::prelude::*;
 
 /// Closest hits must be identical (same t, triangle and barycentrics: the
@@ -58,6 +58,16 @@ impl Oracle {
     }
 }
 
+/// [`check`] through [`Built::with`].
+struct Check<'a>(&'a Oracle, &'a [Ray], String);
+
+impl WithAccel for Check<'_> {
+    type Output = ();
+    fn run<A: Accel>(self, a: &A) {
+        check(a, self.0, self.1, &self.2)
+    }
+}
+
 fn check_scene(scene: &Scene, rays: usize) {
     let rays = common::mixed_rays(scene, rays, 7);
     let oracle = Oracle::new(scene, &rays);
@@ -70,17 +80,15 @@ fn check_scene(scene: &Scene, rays: usize) {
     for builder in Builder::ALL {
         let bvh = Bvh::build(&scene.triangles, &BuildOptions::new(builder));
         bvh.validate(&scene.triangles).unwrap();
-        let layout = BinaryBvh::from_bvh(&bvh, scene.triangles.clone()).unwrap();
-        check(
-            &layout,
-            &oracle,
-            &rays,
-            &format!("{} bvh/{}", scene.name, builder.name()),
-        );
-        for similar in [false, true] {
-            let dst = DualSplitTree::from_bvh(&bvh, scene.triangles.clone(), similar).unwrap();
-            let what = format!("{} {}/{}", scene.name, dst.name(), builder.name());
-            check(&dst, &oracle, &rays, &what);
+        // Every structure derived from the BVH.
+        for &kind in StructureKind::all() {
+            if kind == StructureKind::Brute {
+                continue;
+            }
+            let (built, _) =
+                Built::new(kind, TraversalKind::Stack, &bvh, scene.triangles.clone()).unwrap();
+            let what = format!("{} {}/{}", scene.name, kind.name(), builder.name());
+            built.with(Check(&oracle, &rays, what));
         }
     }
 }
@@ -120,13 +128,15 @@ fn every_leaf_size_agrees_with_oracle() {
                 &scene.triangles,
                 &BuildOptions::new(builder).with_max_leaf_size(leaf),
             );
-            let layout = BinaryBvh::from_bvh(&bvh, scene.triangles.clone()).unwrap();
-            check(
-                &layout,
-                &oracle,
-                &rays,
-                &format!("leaf {leaf} {}", builder.name()),
-            );
+            for &kind in StructureKind::all() {
+                if kind == StructureKind::Brute {
+                    continue;
+                }
+                let (built, _) =
+                    Built::new(kind, TraversalKind::Stack, &bvh, scene.triangles.clone()).unwrap();
+                let what = format!("leaf {leaf} {} {}", kind.name(), builder.name());
+                built.with(Check(&oracle, &rays, what));
+            }
         }
     }
 }

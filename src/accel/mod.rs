@@ -7,6 +7,7 @@ pub(crate) mod binary_bvh;
 mod brute;
 pub mod cbvh;
 pub mod dst;
+pub mod htree;
 pub mod implicit_bvh;
 pub(crate) mod own_box_node;
 mod select;
@@ -17,6 +18,7 @@ pub use binary_bvh::BinaryBvh;
 pub use brute::BruteForce;
 pub use cbvh::CompactBvh;
 pub use dst::DualSplitTree;
+pub use htree::HTree;
 pub use implicit_bvh::ImplicitBvh;
 pub use select::{
     check, Built, LayoutOptions, StructureInfo, StructureKind, TraversalKind, WithAccel,

@@ -3,8 +3,11 @@
 //! monomorphized trace.
 
 use super::dst::DstStats;
+use super::htree::HtreeStats;
 use super::implicit_bvh::DEFAULT_RESERVATION_LIMIT;
-use super::{Accel, Bih, BinaryBvh, BruteForce, CompactBvh, DualSplitTree, ImplicitBvh, SparseBvh};
+use super::{
+    Accel, Bih, BinaryBvh, BruteForce, CompactBvh, DualSplitTree, HTree, ImplicitBvh, SparseBvh,
+};
 use crate::bvh::Bvh;
 use crate::error::{Error, Result};
 use crate::geometry::Triangle;
@@ -85,19 +88,6 @@ impl StructureKind {
         }
     }
 
-    /// Whether this build of raytree has the structure.
-    pub fn is_available(self) -> bool {
-        matches!(
-            self,
-            StructureKind::Bvh
-                | StructureKind::Dst
-                | StructureKind::DstSimilar
-                | StructureKind::Bih
-                | StructureKind::Cbvh
-                | StructureKind::Brute
-        )
-    }
-
     pub fn all() -> &'static [StructureKind] {
         <Self as clap::ValueEnum>::value_variants()
     }
@@ -120,38 +110,19 @@ impl TraversalKind {
         }
     }
 
-    pub fn is_available(self) -> bool {
-        true
-    }
-
     pub fn all() -> &'static [TraversalKind] {
         <Self as clap::ValueEnum>::value_variants()
     }
 }
 
 /// Whether `structure` with `traversal` can be built, with the reason if
-/// not: a name not implemented yet, or a traversal for a structure that has
-/// its own.
+/// not: a traversal for a structure that has its own.
 pub fn check(structure: StructureKind, traversal: TraversalKind) -> Result<()> {
-    if !structure.is_available() {
-        return Err(Error::Invalid(format!(
-            "structure '{}' is not implemented yet; available: {}",
-            structure.name(),
-            available(StructureKind::all(), |s| s.is_available(), |s| s.name())
-        )));
-    }
     if structure != StructureKind::Bvh && traversal != TraversalKind::Stack {
         return Err(Error::Invalid(format!(
             "traversal '{}' applies to the 'bvh' structure only; '{}' has its own",
             traversal.name(),
             structure.name()
-        )));
-    }
-    if !traversal.is_available() {
-        return Err(Error::Invalid(format!(
-            "traversal '{}' is not implemented yet; available: {}",
-            traversal.name(),
-            available(TraversalKind::all(), |t| t.is_available(), |t| t.name())
         )));
     }
     Ok(())
@@ -187,6 +158,7 @@ pub enum Built {
     ImplicitB(OnImplicit<ImplicitB>),
     Dst(DualSplitTree),
     Bih(Bih),
+    Htree(HTree),
     Cbvh(CompactBvh),
     Brute(BruteForce),
 }
@@ -215,6 +187,8 @@ pub struct StructureInfo {
     /// Node kinds and carving levels of a dual-split tree (or a BIH: its
     /// split nodes and single-axis carving, i.e. clip, nodes).
     pub dst: Option<DstStats>,
+    /// Node kinds of an H-tree.
+    pub htree: Option<HtreeStats>,
 }
 
 /// A computation over any structure: [`Built::with`] calls `run` with the
@@ -267,6 +241,7 @@ impl Built {
                 .then(|| state_bytes(traversal, bvh.stats.depth)),
             conversion_seconds: 0.0,
             dst: None,
+            htree: None,
         };
         let (built, mut info) = match (structure, traversal) {
             (StructureKind::Bvh, TraversalKind::Stack) => {
@@ -313,6 +288,15 @@ impl Built {
                 i.dst = Some(s.clone());
                 (Built::Bih(b), i)
             }
+            (StructureKind::Htree, _) => {
+                let h = HTree::from_bvh(bvh, triangles)?;
+                let s = &h.stats;
+                let mut i = info("htree", s.node_bytes, s.index_bytes);
+                i.inner_nodes = s.split_nodes + s.bound_nodes;
+                i.leaves = s.leaves;
+                i.htree = Some(s.clone());
+                (Built::Htree(h), i)
+            }
             (StructureKind::Cbvh, _) => {
                 let c = CompactBvh::from_bvh(bvh, triangles)?;
                 let mut i = info("compact", c.node_bytes(), c.index_bytes());
@@ -327,7 +311,6 @@ impl Built {
                 i.leaves = 1;
                 (Built::Brute(b), i)
             }
-            _ => unreachable!("availability checked above"),
         };
         info.conversion_seconds = start.elapsed().as_secs_f64();
         Ok((built, info))
@@ -370,23 +353,11 @@ impl Built {
             Built::ImplicitB(a) => w.run(a),
             Built::Dst(a) => w.run(a),
             Built::Bih(a) => w.run(a),
+            Built::Htree(a) => w.run(a),
             Built::Cbvh(a) => w.run(a),
             Built::Brute(a) => w.run(a),
         }
     }
-}
-
-fn available<T: Copy>(
-    all: &[T],
-    ok: impl Fn(T) -> bool,
-    name: impl Fn(T) -> &'static str,
-) -> String {
-    all.iter()
-        .copied()
-        .filter(|&t| ok(t))
-        .map(name)
-        .collect::<Vec<_>>()
-        .join(", ")
 }
 
 #[cfg(test)]

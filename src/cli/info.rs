@@ -29,7 +29,7 @@ pub fn run(args: InfoArgs) -> Result<()> {
     let (scene, scene_report) = common::load_scene(&args.scene)?;
     let (bvh, bvh_stats) = common::build_bvh(&scene, &args.scene);
     let mut structures = Vec::new();
-    for &s in StructureKind::all().iter().filter(|s| s.is_available()) {
+    for &s in StructureKind::all() {
         let (_, info) = Built::new(s, TraversalKind::Stack, &bvh, scene.triangles.clone())?;
         structures.push(info);
     }

@@ -7,11 +7,11 @@
 //!
 //! Plane distances are widened as [`super::interval`] says.
 
+use super::interval::{entry, exit, lower, nonempty, raise, split_children};
 use super::leaf::intersect_leaf;
 use super::with_stack;
 use crate::accel::dst::node::DstNode;
 use crate::accel::dst::DualSplitTree;
-use super::interval::{entry, exit, lower, nonempty, raise};
 use crate::geometry::{BoxRay, Hit, Ray};
 use crate::stats::{Stats, Tally};
 
@@ -66,39 +66,19 @@ fn trace_n<S: Stats, const ANY: bool, const N: usize>(
                 let a = axis as usize & 3;
                 let first = node + offset as usize;
                 let second = first + first_words as usize;
-                let t1 = (planes[0] - o[a]) * inv[a];
-                let t2 = (planes[1] - o[a]) * inv[a];
-                // Along +axis the first child (below plane 0) comes first
-                // and ends at t1; the second begins at t2. Reversed otherwise.
-                let (near, t_near_exit, far, t_far_entry) = if neg[a] {
-                    (second, exit(t2), first, entry(t1))
-                } else {
-                    (first, exit(t1), second, entry(t2))
-                };
-                // A NaN distance (a ray in the plane) keeps the child; an
-                // entry at +inf (a ray parallel to the plane, outside it)
-                // is never reached.
-                let hit_near = t_near_exit >= tmin || t_near_exit.is_nan();
-                let hit_far =
-                    (t_far_entry <= tmax && t_far_entry < f32::INFINITY) || t_far_entry.is_nan();
-                if hit_near && hit_far {
-                    stack[sp] = (far as u32, raise(tmin, t_far_entry), tmax);
-                    sp += 1;
-                    tmax = lower(tmax, t_near_exit);
-                    node = near;
-                    continue;
+                match split_children(first, second, planes, o[a], inv[a], neg[a], tmin, tmax) {
+                    [Some(near), Some(far)] => {
+                        stack[sp] = (far.0 as u32, far.1, far.2);
+                        sp += 1;
+                        (node, tmin, tmax) = near;
+                        continue;
+                    }
+                    [Some(c), None] | [None, Some(c)] => {
+                        (node, tmin, tmax) = c;
+                        continue;
+                    }
+                    [None, None] => None,
                 }
-                if hit_near {
-                    tmax = lower(tmax, t_near_exit);
-                    node = near;
-                    continue;
-                }
-                if hit_far {
-                    tmin = raise(tmin, t_far_entry);
-                    node = far;
-                    continue;
-                }
-                None
             }
             DstNode::CarveSingle {
                 axis,

@@ -47,3 +47,38 @@ pub fn lower(acc: f32, t: f32) -> f32 {
     }
 }
 
+/// The children of a two-plane split node that the interval `[tmin, tmax]`
+/// reaches, as `[near, far]`, each with its node and narrowed interval.
+///
+/// `planes` are the first child's maximum and the second child's minimum
+/// on an axis where the ray's origin is `o` and its reciprocal direction
+/// `inv` (`neg`: negative). Along +axis the first child (below plane 0)
+/// comes first and ends at `t1`; the second begins at `t2`; reversed
+/// otherwise. A NaN distance (a ray in the plane) keeps the child; an entry
+/// at +inf (a ray parallel to the plane, outside it) is never reached.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub fn split_children(
+    first: usize,
+    second: usize,
+    planes: [f32; 2],
+    o: f32,
+    inv: f32,
+    neg: bool,
+    tmin: f32,
+    tmax: f32,
+) -> [Option<(usize, f32, f32)>; 2] {
+    let t1 = (planes[0] - o) * inv;
+    let t2 = (planes[1] - o) * inv;
+    let (near, t_near_exit, far, t_far_entry) = if neg {
+        (second, exit(t2), first, entry(t1))
+    } else {
+        (first, exit(t1), second, entry(t2))
+    };
+    let hit_near = t_near_exit >= tmin || t_near_exit.is_nan();
+    let hit_far = (t_far_entry <= tmax && t_far_entry < f32::INFINITY) || t_far_entry.is_nan();
+    [
+        hit_near.then(|| (near, tmin, lower(tmax, t_near_exit))),
+        hit_far.then(|| (far, raise(tmin, t_far_entry), tmax)),
+    ]
+}

@@ -6,6 +6,7 @@
 pub(crate) mod cbvh;
 pub(crate) mod dst;
 mod hapala;
+pub(crate) mod htree;
 mod implicit;
 pub(crate) mod interval;
 mod laine;

@@ -321,6 +321,11 @@ mod tests {
         let p = best_plan(&cell, &target, 1, cell.area(), Rules::SIMILAR);
         assert!(p.ops.is_empty(), "{:?}", p.ops);
         assert_eq!(p.cell, cell);
-        assert_eq!(best_plan(&cell, &target, 1, cell.area(), Rules::IDENTICAL).ops.len(), 1);
+        assert_eq!(
+            best_plan(&cell, &target, 1, cell.area(), Rules::IDENTICAL)
+                .ops
+                .len(),
+            1
+        );
     }
 }

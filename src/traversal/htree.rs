@@ -1,0 +1,130 @@
+//! H-tree traversal: kd-tree like over the ray interval `[tmin, tmax]`, as
+//! the BIH's (baselines.md §4–5). A split node narrows the interval to the
+//! near child (by the direction's sign) and pushes the far one with its
+//! interval; a bounding node narrows it by each stored face, an entry face
+//! (a minimum going +axis, a maximum going −axis) raising `tmin` and an exit
+//! face lowering `tmax`. Faces it does not store are the cell's own, which
+//! the interval is already clipped to. Popped entries are culled against
+//! the closest hit; the traversal runs until the stack is empty.
+
+use super::interval::{entry, exit, lower, nonempty, raise, split_children};
+use super::leaf::intersect_leaf;
+use super::with_stack;
+use crate::accel::htree::node::{LEAF_MASK, OFFSET_BITS, OFFSET_MASK};
+use crate::accel::htree::HTree;
+use crate::geometry::{BoxRay, Hit, Ray};
+use crate::stats::{Stats, Tally};
+
+#[inline]
+pub fn trace<S: Stats, const ANY: bool>(h: &HTree, ray: &Ray, stats: &mut S) -> Option<Hit> {
+    with_stack!(h.depth, trace_n::<S; ANY>(h, ray, stats))
+}
+
+#[inline]
+fn trace_n<S: Stats, const ANY: bool, const N: usize>(
+    h: &HTree,
+    ray: &Ray,
+    stats: &mut S,
+) -> Option<Hit> {
+    if h.is_empty() {
+        return None;
+    }
+    let br = BoxRay::new(ray);
+    let mut tally = Tally {
+        planes: 6,
+        ..Tally::default()
+    };
+    let (tn, tf) = br.interval(&h.root_bounds.to_array(), ray.tmin, ray.tmax);
+    if tn > tf {
+        stats.add(tally);
+        return None;
+    }
+    let words = &h.words[..];
+    let (o, inv, neg) = (br.org, br.inv, br.neg);
+    let mut best: Option<Hit> = None;
+    let mut best_t = ray.tmax;
+    let mut stack = [(0u32, 0f32, 0f32); N];
+    let mut sp = 0;
+    let (mut node, mut tmin, mut tmax) = (0usize, tn, tf);
+    'outer: loop {
+        tally.nodes += 1;
+        if S::LOGS {
+            stats.visit(node as u32);
+        }
+        let w = words[node];
+        match w >> 30 {
+            0 => {
+                tally.planes += 2;
+                let a = (w >> OFFSET_BITS & 3) as usize;
+                let planes = [
+                    f32::from_bits(words[node + 1]),
+                    f32::from_bits(words[node + 2]),
+                ];
+                let (first, second) = (node + 3, node + (w & OFFSET_MASK) as usize);
+                match split_children(first, second, planes, o[a], inv[a], neg[a], tmin, tmax) {
+                    [Some(near), Some(far)] => {
+                        stack[sp] = (far.0 as u32, far.1, far.2);
+                        sp += 1;
+                        (node, tmin, tmax) = near;
+                        continue;
+                    }
+                    [Some(c), None] | [None, Some(c)] => {
+                        (node, tmin, tmax) = c;
+                        continue;
+                    }
+                    [None, None] => {}
+                }
+            }
+            1 => {
+                let mut mask = w & 63;
+                tally.planes += mask.count_ones();
+                let mut at = node + 1;
+                while mask != 0 {
+                    let k = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    let a = k % 3;
+                    let t = (f32::from_bits(words[at]) - o[a]) * inv[a];
+                    at += 1;
+                    // A minimum face is entered going +axis, a maximum face
+                    // left; a negative direction swaps the two.
+                    if (k >= 3) != neg[a] {
+                        tmax = lower(tmax, exit(t));
+                    } else {
+                        tmin = raise(tmin, entry(t));
+                    }
+                }
+                if nonempty(tmin, tmax) {
+                    node = at;
+                    continue;
+                }
+            }
+            _ => {
+                if intersect_leaf::<ANY>(
+                    &h.index,
+                    &h.triangles,
+                    w & LEAF_MASK,
+                    ray,
+                    &mut best_t,
+                    &mut best,
+                    &mut tally,
+                ) {
+                    break;
+                }
+            }
+        }
+        // Pop the next entry whose interval still starts before the closest hit.
+        loop {
+            if sp == 0 {
+                break 'outer;
+            }
+            sp -= 1;
+            let (n, t0, t1) = stack[sp];
+            if t0 <= best_t && t0 < f32::INFINITY {
+                (node, tmin, tmax) = (n as usize, t0, lower(t1, best_t));
+                continue 'outer;
+            }
+        }
+    }
+    stats.add(tally);
+    best
+}
