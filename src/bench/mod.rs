@@ -1,5 +1,6 @@
 //! Reproductions of the papers' measurements, shared by the CLI's `bench`
 //! command and the tests.
 
+pub mod dst;
 pub mod stackless;
 pub mod svg;

@@ -2,6 +2,8 @@
 
 use super::common::{self, BuilderArg};
 use clap::{Args, Subcommand};
+use raytree::accel::StructureKind;
+use raytree::bench::dst;
 use raytree::bench::stackless::{self, Preset};
 use raytree::bench::svg::{stacked_bars, Bar};
 use raytree::bvh::{BuildOptions, Builder};
@@ -16,6 +18,58 @@ pub enum BenchCommand {
     /// The stackless paper's Table 1 and Figure 5: AO render time of every
     /// traversal (eye and AO phases), ratios to STACK, per-ray work, state sizes.
     Stackless(StacklessArgs),
+    /// The dual-split paper's Tables 1 to 3: storage, path-tracing frame
+    /// time and per-ray nodes, plane tests and triangle tests of every
+    /// structure converted from one BVH, with node-type distributions.
+    Dst(DstArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct DstArgs {
+    /// Scenes, repeatable: built-in names or OBJ/PLY files [default: chess
+    /// and hairball; with --preset paper, chess:1M and hairball:1M].
+    #[arg(long = "scene", short = 's')]
+    scenes: Vec<String>,
+    /// quick: 256×256, 2 frames; paper: 1024×1024, 32 frames (as the paper).
+    #[arg(long, value_enum, default_value_t = dst::Preset::Quick)]
+    preset: dst::Preset,
+    /// Frames per structure, overriding the preset's.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=10000))]
+    frames: Option<u32>,
+    /// Image width in pixels, overriding the preset's.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    width: Option<u32>,
+    /// Image height in pixels, overriding the preset's.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    height: Option<u32>,
+    /// Structures to measure, comma-separated [default: bvh, dst,
+    /// dst-similar, bih, htree, cbvh]; ratios are to bvh when it is among them.
+    #[arg(long, short = 'a', value_enum, value_delimiter = ',')]
+    accel: Vec<StructureKind>,
+    /// BVH builder [default: binned SAH, as the paper's Embree build].
+    #[arg(long, value_enum, default_value_t = BuilderArg::Sah)]
+    builder: BuilderArg,
+    /// Most triangles in a BVH leaf (the paper: 8).
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u16).range(1..=255))]
+    max_leaf: u16,
+    /// Worker threads [default: all cores].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    threads: Option<u32>,
+    /// Also write the results as JSON to this file.
+    #[arg(long)]
+    json: Option<PathBuf>,
+    /// No progress bar.
+    #[arg(long, short = 'q')]
+    quiet: bool,
+    /// Camera position "x,y,z" for every scene [default: each scene's own].
+    #[arg(long, value_parser = common::parse_vec3)]
+    eye: Option<Vec3>,
+    /// Point the camera looks at, "x,y,z".
+    #[arg(long, value_parser = common::parse_vec3)]
+    look_at: Option<Vec3>,
+    /// Vertical field of view in degrees.
+    #[arg(long, value_parser = common::parse_fov)]
+    fov: Option<f32>,
 }
 
 #[derive(Args, Debug)]
@@ -67,7 +121,66 @@ pub struct StacklessArgs {
 pub fn run(cmd: BenchCommand) -> Result<()> {
     match cmd {
         BenchCommand::Stackless(a) => run_stackless(a),
+        BenchCommand::Dst(a) => run_dst(a),
     }
+}
+
+fn run_dst(a: DstArgs) -> Result<()> {
+    let scenes = if a.scenes.is_empty() {
+        match a.preset {
+            dst::Preset::Quick => vec!["chess".to_owned(), "hairball".to_owned()],
+            dst::Preset::Paper => vec!["chess:1M".to_owned(), "hairball:1M".to_owned()],
+        }
+    } else {
+        a.scenes.clone()
+    };
+    let (w, h) = a.preset.size();
+    let width = a.width.map_or(w, |v| v as usize);
+    let height = a.height.map_or(h, |v| v as usize);
+    let builder = match a.builder {
+        BuilderArg::Sah => Builder::Sah,
+        BuilderArg::Hybrid => Builder::Hybrid,
+    };
+    let opts = dst::Options {
+        build: BuildOptions::new(builder).with_max_leaf_size(a.max_leaf as usize),
+        width,
+        height,
+        frames: a.frames.map_or(a.preset.frames(), |f| f as usize),
+        structures: if a.accel.is_empty() {
+            dst::STRUCTURES.to_vec()
+        } else {
+            a.accel.clone()
+        },
+    };
+    let threads = a
+        .threads
+        .map_or(rayon::current_num_threads(), |t| t as usize);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| {
+            raytree::error::Error::Invalid(format!("cannot start {threads} threads: {e}"))
+        })?;
+    let frames = scenes.len() * opts.frames * opts.structures.len();
+    let bar = common::progress(frames as u64, "bench dst", a.quiet);
+    let mut results = Vec::new();
+    for spec in &scenes {
+        bar.set_message(format!("bench dst: {spec}"));
+        let mut scene = Scene::from_spec(spec)?;
+        let cam = &mut scene.camera;
+        cam.eye = a.eye.unwrap_or(cam.eye);
+        cam.target = a.look_at.unwrap_or(cam.target);
+        cam.fov_y = a.fov.unwrap_or(cam.fov_y);
+        let r = pool.install(|| dst::run_scene(&scene, &opts, &|| bar.inc(1)))?;
+        bar.suspend(|| println!("{}", dst::markdown(&r)));
+        results.push(r);
+    }
+    bar.finish_and_clear();
+    println!("vs bvh: storage, mean frame time and per-ray work over the uncompressed BVH's (52-byte inner nodes, 4-byte leaves), same run; plane tests count 6 per box and 2 per two-plane node.");
+    if let Some(p) = &a.json {
+        common::write_json(p, &results)?;
+    }
+    Ok(())
 }
 
 fn run_stackless(a: StacklessArgs) -> Result<()> {

@@ -217,11 +217,27 @@ impl BoxRay {
     /// same distances as two calls of `test`, bit for bit.
     #[inline(always)]
     pub fn test_pair(&self, b: &[f32; 12], tmin: f32, tmax: f32) -> [f32; 2] {
+        let t = std::array::from_fn(|a| {
+            let v = Vec4::from_slice(&b[4 * a..4 * a + 4]);
+            (v - self.org4[a]) * self.inv4[a]
+        });
+        self.test_pair_distances(t, tmin, tmax)
+    }
+
+    /// The distances `(plane - o) · inv` of two boxes' planes on axis `a`,
+    /// as [`Self::test_pair`] lays them out: `[lo_0, lo_1, hi_0, hi_1]`.
+    #[inline(always)]
+    pub fn pair_distances(&self, planes: Vec4, a: usize) -> Vec4 {
+        (planes - self.org4[a]) * self.inv4[a]
+    }
+
+    /// [`Self::test_pair`] on plane distances already computed (per axis,
+    /// `[lo_0, lo_1, hi_0, hi_1]`), for layouts that reuse some of them.
+    #[inline(always)]
+    pub fn test_pair_distances(&self, t: [Vec4; 3], tmin: f32, tmax: f32) -> [f32; 2] {
         let mut tn = Vec4::splat(tmin);
         let mut tf = Vec4::INFINITY;
-        for a in 0..3 {
-            let v = Vec4::from_slice(&b[4 * a..4 * a + 4]);
-            let t = (v - self.org4[a]) * self.inv4[a];
+        for (a, t) in t.into_iter().enumerate() {
             // Lanes xy: the near planes, zw: the far planes.
             let t = if self.neg[a] { t.zwxy() } else { t };
             tn = max_keep(t, tn);

@@ -5,45 +5,39 @@
 //! current node's box and computes only the six stored planes per node
 //! (6 plane tests against the uncompressed layout's 12); each child's
 //! distances are picked from the two sets by the owner bits. The slab test
-//! on them is [`crate::geometry::BoxRay::test`]'s, on the same floats, so
-//! entry distances, child order and the visited node sequence equal STACK's
-//! over the uncompressed BVH bit for bit. A stack entry is a child
-//! reference and its six distances (28 bytes).
+//! on them is [`crate::geometry::BoxRay::test_pair`]'s, on the same floats,
+//! so entry distances, child order and the visited node sequence equal
+//! STACK's over the uncompressed BVH bit for bit. A stack entry is a child
+//! reference and its plane distances.
 
 use super::leaf::{enter, intersect_leaf};
 use super::with_stack;
 use crate::accel::cbvh::{CompactBvh, INDEX_MASK, LEAF, OWNER_SHIFT};
-use crate::geometry::aabb::widen_up;
 use crate::geometry::{Hit, Ray};
 use crate::stats::Stats;
+use glam::{BVec4A, Vec4, Vec4Swizzles};
 
-/// Plane distances of a box, `[min x, y, z, max x, y, z]`, not yet ordered
-/// by the ray's direction.
-type Planes = [f32; 6];
+/// The current node's plane distances per axis, `[lo, lo, hi, hi]`: the
+/// lanes either child takes where it owns the node's plane.
+type Here = [Vec4; 3];
 
-/// The slab test of [`crate::geometry::BoxRay::test`] on precomputed plane
-/// distances: the entry distance, or `+inf` on a miss.
-#[inline(always)]
-fn test(d: &Planes, neg: [bool; 3], tmin: f32, tmax: f32) -> f32 {
-    let mut tn = tmin;
-    let mut tf = f32::INFINITY;
-    for a in 0..3 {
-        let (n, f) = if neg[a] {
-            (d[a + 3], d[a])
-        } else {
-            (d[a], d[a + 3])
-        };
-        tn = if n > tn { n } else { tn };
-        tf = if f < tf { f } else { tf };
+/// For the owner bits `min | max << 3` of a node, per axis, the lanes
+/// `[lo_0, lo_1, hi_0, hi_1]` that take the parent's plane.
+static PARENT_LANES: [[BVec4A; 3]; 64] = {
+    let mut t = [[BVec4A::FALSE; 3]; 64];
+    let mut bits = 0;
+    while bits < 64 {
+        let mut a = 0;
+        while a < 3 {
+            let mn = bits >> a & 1 == 1;
+            let mx = bits >> (a + 3) & 1 == 1;
+            t[bits][a] = BVec4A::new(!mn, mn, !mx, mx);
+            a += 1;
+        }
+        bits += 1;
     }
-    let tf = widen_up(tf);
-    let tf = if tmax < tf { tmax } else { tf };
-    if tn <= tf {
-        tn
-    } else {
-        f32::INFINITY
-    }
-}
+    t
+};
 
 #[inline]
 pub fn trace<S: Stats, const ANY: bool>(c: &CompactBvh, ray: &Ray, stats: &mut S) -> Option<Hit> {
@@ -61,15 +55,16 @@ fn trace_n<S: Stats, const ANY: bool, const N: usize>(
     }
     let root_box = c.root_bounds.to_array();
     let (br, mut tally) = enter(ray, &root_box, stats)?;
-    let (o, inv, neg) = (br.org, br.inv, br.neg);
-    let dist = |p: f32, a: usize| (p - o[a]) * inv[a];
     let tmin = ray.tmin;
     let mut tmax = ray.tmax;
     let mut best: Option<Hit> = None;
-    let mut stack = [(0u32, [0f32; 6]); N];
+    let mut stack = [(0u32, [Vec4::ZERO; 3]); N];
     let mut sp = 0;
     let mut node = c.root;
-    let mut here: Planes = std::array::from_fn(|k| dist(root_box[k], k % 3));
+    let mut here: Here = std::array::from_fn(|a| {
+        let (lo, hi) = (root_box[a], root_box[a + 3]);
+        br.pair_distances(Vec4::new(lo, lo, hi, hi), a)
+    });
     let nodes = &c.nodes[..];
     loop {
         tally.nodes += 1;
@@ -91,45 +86,40 @@ fn trace_n<S: Stats, const ANY: bool, const N: usize>(
         } else {
             let n = &nodes[node as usize];
             tally.planes += 6;
-            // Child j's planes: the parent's where j owns them, the
-            // node's stored ones otherwise.
-            let (mut d0, mut d1) = (here, here);
-            for a in 0..3 {
-                let lo = dist(n.lo[a], a);
-                let hi = dist(n.hi[a], a);
-                if n.refs[0] >> (OWNER_SHIFT + a as u32) & 1 == 0 {
-                    d1[a] = lo;
-                } else {
-                    d0[a] = lo;
-                }
-                if n.refs[1] >> (OWNER_SHIFT + a as u32) & 1 == 0 {
-                    d1[a + 3] = hi;
-                } else {
-                    d0[a + 3] = hi;
-                }
-            }
-            let tl = test(&d0, neg, tmin, tmax);
-            let tr = test(&d1, neg, tmin, tmax);
+            // Per axis, lanes [lo_0, lo_1, hi_0, hi_1]: a child's plane is
+            // the node's own where the child owns it (its distance is in
+            // `here`), the stored one otherwise.
+            let owners = (n.refs[0] >> OWNER_SHIFT & 7) | (n.refs[1] >> OWNER_SHIFT & 7) << 3;
+            let parents = &PARENT_LANES[owners as usize];
+            let t: [Vec4; 3] = std::array::from_fn(|a| {
+                let stored = br.pair_distances(Vec4::new(n.lo[a], n.lo[a], n.hi[a], n.hi[a]), a);
+                Vec4::select(parents[a], here[a], stored)
+            });
+            let [tl, tr] = br.test_pair_distances(t, tmin, tmax);
             let (left, right) = (n.child(0), n.child(1));
             let (hit_l, hit_r) = (tl != f32::INFINITY, tr != f32::INFINITY);
+            let child = |j: usize| -> Here {
+                if j == 0 {
+                    t.map(|v| v.xxzz())
+                } else {
+                    t.map(|v| v.yyww())
+                }
+            };
             if hit_l && hit_r {
                 // Ties go to the left child, as in STACK.
-                let (near, far) = if tr < tl {
-                    ((right, d1), (left, d0))
-                } else {
-                    ((left, d0), (right, d1))
-                };
-                (node, here) = near;
-                stack[sp] = far;
+                let (near, far) = if tr < tl { (1, 0) } else { (0, 1) };
+                node = if near == 0 { left } else { right };
+                here = child(near);
+                stack[sp] = (if far == 0 { left } else { right }, child(far));
                 sp += 1;
                 continue;
             }
             if hit_l {
-                (node, here) = (left, d0);
+                (node, here) = (left, child(0));
                 continue;
             }
             if hit_r {
-                (node, here) = (right, d1);
+                (node, here) = (right, child(1));
                 continue;
             }
         }

@@ -1,0 +1,306 @@
+//! The dual-split paper's Tables 1 to 3: storage, path-tracing frame time
+//! and per-ray work (nodes, plane tests, triangle tests) of every structure
+//! converted from one BVH, with node-type distributions and carving levels.
+//!
+//! The workload is the paper's: diffuse path tracing, 1 sample per pixel, 5
+//! bounces without Russian roulette, every ray a closest-hit query, on all
+//! cores. Frames are rendered round-robin over the structures (frame 1 of
+//! each, then frame 2 of each, ...) so that drift in the machine's speed
+//! touches every structure alike; a structure's frame time is the mean over
+//! its frames. Ratios are to the uncompressed BVH in the same run.
+
+use crate::accel::dst::DstStats;
+use crate::accel::htree::HtreeStats;
+use crate::accel::{Accel, Built, StructureKind, TraversalKind, WithAccel};
+use crate::bvh::{BuildOptions, BuildStats, Bvh};
+use crate::error::Result;
+use crate::render::{render, Image, Integrator, PathSettings, Rendered};
+use crate::scene::Scene;
+use crate::stats::PerRay;
+use serde::Serialize;
+
+/// The structures of Table 1, in the paper's order.
+pub const STRUCTURES: [StructureKind; 6] = [
+    StructureKind::Bvh,
+    StructureKind::Dst,
+    StructureKind::DstSimilar,
+    StructureKind::Bih,
+    StructureKind::Htree,
+    StructureKind::Cbvh,
+];
+
+/// Image size and frame count of a run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum Preset {
+    /// 256×256, 2 frames.
+    Quick,
+    /// The paper's 1024×1024, averaged over 32 frames.
+    Paper,
+}
+
+impl Preset {
+    pub fn size(self) -> (usize, usize) {
+        match self {
+            Preset::Quick => (256, 256),
+            Preset::Paper => (1024, 1024),
+        }
+    }
+
+    pub fn frames(self) -> usize {
+        match self {
+            Preset::Quick => 2,
+            Preset::Paper => 32,
+        }
+    }
+}
+
+pub struct Options {
+    pub build: BuildOptions,
+    pub width: usize,
+    pub height: usize,
+    pub frames: usize,
+    pub structures: Vec<StructureKind>,
+}
+
+/// One structure's row of Table 1.
+#[derive(Clone, Debug, Serialize)]
+pub struct Row {
+    pub structure: StructureKind,
+    pub bytes: usize,
+    pub node_bytes: usize,
+    pub index_bytes: usize,
+    /// `bytes` over the BVH's.
+    pub storage_ratio: f64,
+    pub nodes: usize,
+    pub conversion_seconds: f64,
+    /// Mean frame time.
+    pub frame_seconds: f64,
+    pub fastest_frame_seconds: f64,
+    /// `frame_seconds` over the BVH's.
+    pub frame_ratio: f64,
+    pub rays: u64,
+    pub mrays_per_second: f64,
+    pub per_ray: PerRay,
+    /// Per-ray work over the BVH's: nodes, plane tests, triangle tests.
+    pub nodes_ratio: f64,
+    pub planes_ratio: f64,
+    pub triangles_ratio: f64,
+    /// Whether the frame equals the BVH's bit for bit.
+    pub same_image: bool,
+    /// Node kinds and carving levels (dual-split trees and the BIH).
+    pub dst: Option<DstStats>,
+    /// Node kinds (H-tree).
+    pub htree: Option<HtreeStats>,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct SceneResult {
+    pub scene: String,
+    pub triangles: usize,
+    pub bvh: BuildStats,
+    pub width: usize,
+    pub height: usize,
+    pub frames: usize,
+    pub threads: usize,
+    pub path: PathSettings,
+    pub rows: Vec<Row>,
+}
+
+struct Frame<'a> {
+    scene: &'a Scene,
+    integrator: &'a Integrator,
+    size: (usize, usize),
+}
+
+impl WithAccel for Frame<'_> {
+    type Output = Rendered;
+    fn run<A: Accel>(self, a: &A) -> Rendered {
+        render(
+            a,
+            self.scene,
+            self.integrator,
+            self.size.0,
+            self.size.1,
+            &|_| {},
+        )
+    }
+}
+
+/// Measures every structure of `opts` on `scene`; `tick` is called after
+/// each frame.
+pub fn run_scene(scene: &Scene, opts: &Options, tick: &dyn Fn()) -> Result<SceneResult> {
+    let bvh = Bvh::build(&scene.triangles, &opts.build);
+    let mut built = Vec::new();
+    for &s in &opts.structures {
+        built.push(Built::new(
+            s,
+            TraversalKind::Stack,
+            &bvh,
+            scene.triangles.clone(),
+        )?);
+    }
+    let path = PathSettings::default();
+    let integrator = Integrator::Path(path.clone());
+    let frames = opts.frames.max(1);
+    let mut times = vec![Vec::with_capacity(frames); built.len()];
+    let mut firsts: Vec<Option<Rendered>> = vec![None; built.len()];
+    for _ in 0..frames {
+        for (k, (b, _)) in built.iter().enumerate() {
+            let r = b.with(Frame {
+                scene,
+                integrator: &integrator,
+                size: (opts.width, opts.height),
+            });
+            times[k].push(r.seconds);
+            firsts[k].get_or_insert(r);
+            tick();
+        }
+    }
+    let mut rows: Vec<Row> = Vec::new();
+    for (k, (_, info)) in built.iter().enumerate() {
+        let r = firsts[k].as_ref().expect("one frame at least");
+        let mean = times[k].iter().sum::<f64>() / times[k].len() as f64;
+        rows.push(Row {
+            structure: info.structure,
+            bytes: info.bytes,
+            node_bytes: info.node_bytes,
+            index_bytes: info.index_bytes,
+            storage_ratio: 0.0,
+            nodes: info.inner_nodes + info.leaves,
+            conversion_seconds: info.conversion_seconds,
+            frame_seconds: mean,
+            fastest_frame_seconds: times[k].iter().copied().fold(f64::INFINITY, f64::min),
+            frame_ratio: 0.0,
+            rays: r.counters.rays,
+            mrays_per_second: r.counters.rays as f64 / mean.max(1e-12) / 1e6,
+            per_ray: r.counters.per_ray(),
+            nodes_ratio: 0.0,
+            planes_ratio: 0.0,
+            triangles_ratio: 0.0,
+            same_image: false,
+            dst: info.dst.clone(),
+            htree: info.htree.clone(),
+        });
+    }
+    // Ratios to the BVH, when it was measured.
+    let base = opts
+        .structures
+        .iter()
+        .position(|&s| s == StructureKind::Bvh);
+    if let Some(b) = base {
+        let (bytes, secs, per) = (rows[b].bytes, rows[b].frame_seconds, rows[b].per_ray);
+        let image: &Image = &firsts[b].as_ref().expect("rendered").image;
+        for (k, row) in rows.iter_mut().enumerate() {
+            row.storage_ratio = row.bytes as f64 / bytes.max(1) as f64;
+            row.frame_ratio = row.frame_seconds / secs.max(1e-12);
+            row.nodes_ratio = row.per_ray.nodes / per.nodes.max(1e-12);
+            row.planes_ratio = row.per_ray.planes / per.planes.max(1e-12);
+            row.triangles_ratio = row.per_ray.triangles / per.triangles.max(1e-12);
+            row.same_image = firsts[k].as_ref().expect("rendered").image == *image;
+        }
+    }
+    Ok(SceneResult {
+        scene: scene.name.clone(),
+        triangles: scene.mesh.triangle_count(),
+        bvh: bvh.stats.clone(),
+        width: opts.width,
+        height: opts.height,
+        frames,
+        threads: rayon::current_num_threads(),
+        path,
+        rows,
+    })
+}
+
+/// Table 1 of one scene, in Markdown.
+pub fn markdown(r: &SceneResult) -> String {
+    let mut s = format!(
+        "### {} ({} triangles; {} BVH, leaves ≤ {}, built in {:.3} s; path tracing {}×{}, {} spp, {} bounces, {} frames, {} threads)\n\n",
+        r.scene,
+        r.triangles,
+        r.bvh.builder,
+        r.bvh.max_leaf_size,
+        r.bvh.build_seconds,
+        r.width,
+        r.height,
+        r.path.samples,
+        r.path.bounces,
+        r.frames,
+        r.threads
+    );
+    s += "| structure | storage MB | vs bvh | nodes | conversion s | frame s | vs bvh | Mrays/s | nodes/ray | vs bvh | plane tests/ray | vs bvh | triangle tests/ray | vs bvh | same image |\n";
+    s += "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|\n";
+    for row in &r.rows {
+        s += &format!(
+            "| {} | {:.3} | {:.1}% | {} | {:.3} | {:.4} | {:.1}% | {:.2} | {:.2} | {:.2}× | {:.1} | {:.1}% | {:.2} | {:+.1}% | {} |\n",
+            row.structure.name(),
+            row.bytes as f64 / 1e6,
+            100.0 * row.storage_ratio,
+            row.nodes,
+            row.conversion_seconds,
+            row.frame_seconds,
+            100.0 * row.frame_ratio,
+            row.mrays_per_second,
+            row.per_ray.nodes,
+            row.nodes_ratio,
+            row.per_ray.planes,
+            100.0 * row.planes_ratio,
+            row.per_ray.triangles,
+            100.0 * (row.triangles_ratio - 1.0),
+            if row.same_image { "yes" } else { "no" }
+        );
+    }
+    let two_plane: Vec<_> = r
+        .rows
+        .iter()
+        .filter_map(|row| row.dst.as_ref().map(|d| (row.structure, d)))
+        .collect();
+    if !two_plane.is_empty() {
+        s += "\n| Tables 2–3 | nodes | split | carve | leaf | 1-axis : 2-axis carving | 0 / 1 / 2 / 3 carving levels |\n";
+        s += "|---|---:|---:|---:|---:|---|---|\n";
+        for (kind, d) in two_plane {
+            s += &dst_row(kind, d);
+        }
+    }
+    for row in &r.rows {
+        if let Some(h) = &row.htree {
+            s += &format!(
+                "\n{}: {} split nodes, {} bounding nodes (by faces stored, 1–6: {:?}), {} leaves\n",
+                row.structure.name(),
+                h.split_nodes,
+                h.bound_nodes,
+                &h.bound_faces[1..],
+                h.leaves
+            );
+        }
+    }
+    s
+}
+
+/// One row of the node-type table: counts and shares as the paper's
+/// Tables 2 and 3 give them: carving leaves count as carving nodes, "leaf"
+/// is the plain leaves (the paper's 4.5% of leaves on Crytek Sponza leaves
+/// no other reading).
+pub fn dst_row(kind: StructureKind, d: &DstStats) -> String {
+    let nodes = d.nodes().max(1) as f64;
+    let carve = d.carve_single + d.carve_dual;
+    let carves = (d.carve_single + d.carve_dual).max(1) as f64;
+    let levels = d.carving_levels;
+    let children = levels.iter().sum::<usize>().max(1) as f64;
+    let pct = |x: usize, of: f64| 100.0 * x as f64 / of;
+    format!(
+        "| {} | {} | {:.0}% | {:.0}% | {:.1}% | {:.0}% : {:.0}% | {:.0}% / {:.0}% / {:.0}% / {:.1}% |\n",
+        kind.name(),
+        d.nodes(),
+        pct(d.split_nodes, nodes),
+        pct(carve, nodes),
+        pct(d.plain_leaves, nodes),
+        pct(d.carve_single, carves),
+        pct(d.carve_dual, carves),
+        pct(levels[0], children),
+        pct(levels[1], children),
+        pct(levels[2], children),
+        pct(levels[3], children),
+    )
+}
