@@ -51,16 +51,27 @@ pub fn run(args: InfoArgs) -> Result<()> {
         b.builder, b.max_leaf_size, b.nodes, b.inner_nodes, b.leaves, b.depth, b.sah_cost, b.degenerate_triangles, b.build_seconds
     );
     println!();
+    let bvh_bytes = r
+        .structures
+        .iter()
+        .find(|s| s.structure == StructureKind::Bvh)
+        .map(|s| s.bytes);
+    let vs_bvh = |bytes: usize| {
+        bvh_bytes.map_or("-".into(), |b| {
+            format!("{:.1}%", 100.0 * bytes as f64 / b.max(1) as f64)
+        })
+    };
     println!(
-        "| structure | bytes | MiB | node bytes | index bytes | inner nodes | leaves | conversion s |"
+        "| structure | bytes | MiB | vs bvh | node bytes | index bytes | inner nodes | leaves | conversion s |"
     );
-    println!("|---|---:|---:|---:|---:|---:|---:|---:|");
+    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|");
     for s in &r.structures {
         println!(
-            "| {} | {} | {:.3} | {} | {} | {} | {} | {:.4} |",
+            "| {} | {} | {:.3} | {} | {} | {} | {} | {} | {:.4} |",
             s.structure.name(),
             s.bytes,
             s.bytes as f64 / 1048576.0,
+            vs_bvh(s.bytes),
             s.node_bytes,
             s.index_bytes,
             s.inner_nodes,
@@ -74,13 +85,8 @@ pub fn run(args: InfoArgs) -> Result<()> {
         .filter_map(|s| s.dst.as_ref().map(|d| (s.structure, d)))
         .collect();
     if !dsts.is_empty() {
-        let bvh_bytes = r
-            .structures
-            .iter()
-            .find(|s| s.structure == StructureKind::Bvh)
-            .map(|s| s.bytes);
         println!();
-        println!("| dual-split | storage vs bvh | split | carve 1-axis | carve 2-axis | carving leaves | plain leaves | 0 / 1 / 2 / 3 carving levels | 1-axis : 2-axis |");
+        println!("| two-plane tree (bih: clip nodes are 1-axis carving) | storage vs bvh | split | carve 1-axis | carve 2-axis | carving leaves | plain leaves | 0 / 1 / 2 / 3 carving levels | 1-axis : 2-axis |");
         println!("|---|---:|---:|---:|---:|---:|---:|---|---|");
         for (kind, d) in dsts {
             let levels = d.carving_levels;
@@ -89,7 +95,7 @@ pub fn run(args: InfoArgs) -> Result<()> {
             println!(
                 "| {} | {} | {} | {} | {} | {} | {} | {:.0}% / {:.0}% / {:.0}% / {:.1}% | {:.0}% : {:.0}% |",
                 kind.name(),
-                bvh_bytes.map_or("-".into(), |b| format!("{:.1}%", 100.0 * (d.node_bytes + d.index_bytes) as f64 / b as f64)),
+                vs_bvh(d.node_bytes + d.index_bytes),
                 d.split_nodes,
                 d.carve_single,
                 d.carve_dual,
@@ -101,6 +107,27 @@ pub fn run(args: InfoArgs) -> Result<()> {
                 100.0 * levels[3] as f64 / all,
                 100.0 * d.carve_single as f64 / carves,
                 100.0 * d.carve_dual as f64 / carves,
+            );
+        }
+    }
+    for s in &r.structures {
+        if let Some(h) = &s.htree {
+            println!();
+            println!("| h-tree | split | bounding | leaves | bounding nodes storing 1 / 2 / 3 / 4 / 5 / 6 faces |");
+            println!("|---|---:|---:|---:|---|");
+            let f = h.bound_faces;
+            println!(
+                "| {} | {} | {} | {} | {} / {} / {} / {} / {} / {} |",
+                s.structure.name(),
+                h.split_nodes,
+                h.bound_nodes,
+                h.leaves,
+                f[1],
+                f[2],
+                f[3],
+                f[4],
+                f[5],
+                f[6]
             );
         }
     }
