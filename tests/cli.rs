@@ -377,3 +377,76 @@ fn bench_stackless_reports_every_algorithm() {
         assert!(svg.contains("implicit-b") && svg.contains("laine-8"));
     }
 }
+
+#[test]
+fn bench_dst_reports_every_structure() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = ok(&raytree(
+        &[
+            "bench",
+            "dst",
+            "-s",
+            "chess:3000",
+            "-s",
+            "hairball:2000",
+            "--width",
+            "48",
+            "--height",
+            "40",
+            "--frames",
+            "2",
+            "-q",
+            "--json",
+            "d.json",
+        ],
+        dir.path(),
+    ));
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("d.json")).unwrap()).unwrap();
+    let scenes = json.as_array().unwrap();
+    assert_eq!(scenes.len(), 2);
+    for scene in scenes {
+        assert_eq!(scene["frames"], 2);
+        let rows = scene["rows"].as_array().unwrap();
+        let names: Vec<&str> = rows
+            .iter()
+            .map(|r| r["structure"].as_str().unwrap())
+            .collect();
+        assert_eq!(names, ["bvh", "dst", "dst-similar", "bih", "htree", "cbvh"]);
+        for row in rows {
+            let name = row["structure"].as_str().unwrap();
+            assert!(
+                out.contains(&format!("| {name} |")),
+                "{name} not in the table"
+            );
+            for key in [
+                "frame_seconds",
+                "frame_ratio",
+                "storage_ratio",
+                "mrays_per_second",
+            ] {
+                let v = row[key].as_f64().unwrap();
+                assert!(v.is_finite() && v > 0.0, "{name} {key} = {v}");
+            }
+            for key in ["nodes", "planes", "triangles"] {
+                assert!(row["per_ray"][key].as_f64().unwrap() > 0.0, "{name} {key}");
+            }
+            // Every structure finds the BVH's closest hits: same image.
+            assert_eq!(row["same_image"], true, "{name} renders another image");
+            assert_eq!(
+                row["bytes"].as_u64().unwrap(),
+                row["node_bytes"].as_u64().unwrap() + row["index_bytes"].as_u64().unwrap()
+            );
+        }
+        // Storage below the BVH's for every compressed structure, and the
+        // Compact BVH at exactly the BVH's per-ray nodes.
+        let bvh = &rows[0];
+        for row in &rows[1..] {
+            assert!(row["storage_ratio"].as_f64().unwrap() < 1.0);
+        }
+        assert_eq!(rows[5]["per_ray"]["nodes"], bvh["per_ray"]["nodes"]);
+        assert!(rows[1]["dst"]["split_nodes"].as_u64().unwrap() > 0);
+        assert_eq!(rows[3]["dst"]["carve_dual"], 0);
+        assert!(rows[4]["htree"]["bound_nodes"].as_u64().unwrap() > 0);
+    }
+}
