@@ -120,7 +120,9 @@ impl Bvh {
                     }
                 }
                 NodeKind::Leaf { count, .. } => {
-                    if count == 0 || count as usize > self.stats.max_leaf_size {
+                    // Only the root of a tree over no triangles is empty.
+                    let empty_ok = i == 0 && self.prims.is_empty();
+                    if (count == 0 && !empty_ok) || count as usize > self.stats.max_leaf_size {
                         return Err(format!("leaf {i} holds {count} triangles"));
                     }
                     for &p in self.leaf_prims(n) {

@@ -182,10 +182,14 @@ impl BoxRay {
     /// relies on.
     ///
     /// The test is conservative (Ize 2013; Woop et al. 2013, §5): the exit
-    /// distance is widened by `2γ₃` of itself, the most that the rounding of
-    /// `(b - o) · inv` can move it. Without this a ray hitting a triangle
-    /// exactly at a vertex or edge that lies on its box's boundary can
-    /// compute `tnear > tfar` and lose the hit the watertight test found.
+    /// distance is widened up and the entry distance down by `2γ₃` of
+    /// themselves, the most that the rounding of `(b - o) · inv` can move
+    /// them. Without the exit widening a ray hitting a triangle exactly at a
+    /// vertex or edge that lies on its box's boundary can compute `tnear >
+    /// tfar` and lose the hit the watertight test found; without the entry
+    /// widening a triangle lying in its box's entry face, hit at exactly the
+    /// closest distance so far (a tie, which the smaller triangle index
+    /// wins) or one ulp before it, can be culled against that distance.
     #[inline(always)]
     pub fn test(&self, b: &[f32; 6], tmin: f32, tmax: f32) -> f32 {
         let (tn, tf) = self.interval(b, tmin, tmax);
@@ -209,7 +213,7 @@ impl BoxRay {
             tf = if f < tf { f } else { tf };
         }
         let tf = widen_up(tf);
-        (tn, if tmax < tf { tmax } else { tf })
+        (widen_down(tn), if tmax < tf { tmax } else { tf })
     }
 
     /// [`Self::test`] for two boxes at once, stored per axis as
@@ -247,6 +251,9 @@ impl BoxRay {
         // slab, beside it) becomes NaN here; NaN fails `tn <= tf` below, a
         // miss, which is what -inf gives too. Cheaper than guarding.
         tf += tf.abs() * ROBUST_WIDENING;
+        // The entry widened down likewise (+inf, a miss, becomes NaN: still
+        // a miss).
+        tn -= tn.abs() * ROBUST_WIDENING;
         tf = min_keep(Vec4::splat(tmax), tf);
         let hit = tn.cmple(tf);
         let t = Vec4::select(hit, tn, Vec4::INFINITY);
@@ -262,10 +269,16 @@ mod tests {
         Aabb::new(Vec3::ZERO, Vec3::ONE)
     }
 
+    /// The entry distance of a hit at exactly `t`: widened down by `2γ₃`.
+    fn entered(t: f32) -> Option<f32> {
+        Some(widen_down(t))
+    }
+
     #[test]
     fn hits_and_misses() {
         let r = Ray::infinite(Vec3::new(-1.0, 0.5, 0.5), Vec3::X);
-        assert_eq!(unit().intersect(&r, f32::INFINITY), Some(1.0));
+        assert_eq!(unit().intersect(&r, f32::INFINITY), entered(1.0));
+        assert!(entered(1.0).unwrap() < 1.0);
         assert_eq!(unit().intersect(&r, 0.5), None);
         let r = Ray::infinite(Vec3::new(-1.0, 1.5, 0.5), Vec3::X);
         assert_eq!(unit().intersect(&r, f32::INFINITY), None);
@@ -277,7 +290,7 @@ mod tests {
     #[test]
     fn origin_inside_enters_at_tmin() {
         let r = Ray::new(Vec3::splat(0.5), Vec3::new(1.0, -2.0, 0.0), 0.25, 10.0);
-        assert_eq!(unit().intersect(&r, 10.0), Some(0.25));
+        assert_eq!(unit().intersect(&r, 10.0), entered(0.25));
     }
 
     #[test]
@@ -285,7 +298,7 @@ mod tests {
         // Origin exactly on the plane y = 0 with d.y = 0: 0 * inf = NaN, ignored.
         for dy in [0.0f32, -0.0] {
             let r = Ray::infinite(Vec3::new(-1.0, 0.0, 0.5), Vec3::new(1.0, dy, 0.0));
-            assert_eq!(unit().intersect(&r, f32::INFINITY), Some(1.0));
+            assert_eq!(unit().intersect(&r, f32::INFINITY), entered(1.0));
         }
         // Just outside the slab with d.y = 0 misses.
         let r = Ray::infinite(Vec3::new(-1.0, -1e-30, 0.5), Vec3::X);
@@ -307,7 +320,7 @@ mod tests {
     fn flat_box_is_hit() {
         let b = Aabb::new(Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 1.0));
         let r = Ray::infinite(Vec3::new(0.5, 2.0, 0.5), -Vec3::Y);
-        assert_eq!(b.intersect(&r, f32::INFINITY), Some(2.0));
+        assert_eq!(b.intersect(&r, f32::INFINITY), entered(2.0));
     }
 
     #[test]

@@ -103,6 +103,12 @@ impl Triangle {
         let bz = s.z * b[kz];
         let cz = s.z * c[kz];
         let t_scaled = u * az + v * bz + w * cz;
+        // Coordinates so large that a product overflowed f32 (an edge
+        // function, the determinant or T is inf or NaN): the whole test
+        // again in f64, where they cannot.
+        if !(det.is_finite() && t_scaled.is_finite()) {
+            return self.intersect_f64(ray, tmin, tmax);
+        }
         // Flip T by det's sign so that the comparisons need no division.
         let sign = det.to_bits() & 0x8000_0000;
         let t_abs = f32::from_bits(t_scaled.to_bits() ^ sign);
@@ -112,6 +118,38 @@ impl Triangle {
         }
         let rcp = 1.0 / det;
         Some((t_scaled * rcp, v * rcp, w * rcp))
+    }
+
+    /// [`Self::intersect`] in f64, for triangles whose f32 products
+    /// overflow (coordinates beyond about 1e12 from the ray's origin).
+    #[cold]
+    #[inline(never)]
+    fn intersect_f64(&self, ray: &Ray, tmin: f32, tmax: f32) -> Option<(f32, f32, f32)> {
+        let [kx, ky, kz] = ray.k.map(|k| k & 3);
+        let s = ray.shear.as_dvec3();
+        let o = ray.origin().as_dvec3();
+        let sheared = |p: Vec3| {
+            let p = (p.as_dvec3() - o).to_array();
+            [p[kx] - s.x * p[kz], p[ky] - s.y * p[kz], s.z * p[kz]]
+        };
+        let [ax, ay, az] = sheared(self.a);
+        let [bx, by, bz] = sheared(self.b);
+        let [cx, cy, cz] = sheared(self.c);
+        let u = cx * by - cy * bx;
+        let v = ax * cy - ay * cx;
+        let w = bx * ay - by * ax;
+        if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+            return None;
+        }
+        let det = u + v + w;
+        if det == 0.0 || !det.is_finite() {
+            return None;
+        }
+        let t = ((u * az + v * bz + w * cz) / det) as f32;
+        if !(t >= tmin && t <= tmax) {
+            return None;
+        }
+        Some((t, (v / det) as f32, (w / det) as f32))
     }
 
     /// [`Self::intersect`] as a [`Hit`] for triangle `prim`.
@@ -175,6 +213,26 @@ mod tests {
         let h1 = t1.intersect(&r, 0.0, f32::INFINITY);
         let h2 = t2.intersect(&r, 0.0, f32::INFINITY);
         assert!(h1.is_some() || h2.is_some());
+    }
+
+    #[test]
+    fn huge_coordinates_give_finite_hits() {
+        for scale in [1e15f32, 1e30, 1e37] {
+            let t = Triangle::new(Vec3::ZERO, Vec3::X * scale, Vec3::Y * scale);
+            let r = Ray::infinite(
+                Vec3::new(0.25, 0.25, -2.0) * scale,
+                Vec3::new(0.0, 0.0, 1.0) * scale,
+            );
+            let (t, u, v) = t.intersect(&r, 0.0, f32::INFINITY).unwrap();
+            assert_eq!(t, 2.0, "scale {scale}");
+            assert!(
+                (u - 0.25).abs() < 1e-6 && (v - 0.25).abs() < 1e-6,
+                "{u} {v}"
+            );
+            let miss = Ray::infinite(Vec3::new(0.75, 0.75, -2.0) * scale, Vec3::Z * scale);
+            let tri = Triangle::new(Vec3::ZERO, Vec3::X * scale, Vec3::Y * scale);
+            assert!(tri.intersect(&miss, 0.0, f32::INFINITY).is_none());
+        }
     }
 
     #[test]

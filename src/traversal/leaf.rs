@@ -8,10 +8,26 @@ use crate::stats::{Stats, Tally};
 /// Index-list bit: the last triangle of a leaf (one list format for every layout).
 pub use crate::accel::binary_bvh::LAST;
 
+/// How far past the closest hit so far a traversal still looks, relative
+/// to its distance: boxes and regions are culled against
+/// [`cull_distance`], not the hit itself. The `t` of a watertight hit is
+/// computed from the triangle's scaled vertices and may lie a few ulps
+/// before the point where the ray meets the triangle's box; a triangle that
+/// ties with the closest hit (overlapping coplanar triangles, common in
+/// game levels), whose smaller index must win, would otherwise be culled by
+/// whichever structure happened to find the other one first.
+pub const TIE_MARGIN: f32 = 1.0 / (1 << 17) as f32;
+
+/// The culling distance for a closest hit at `t`.
+#[inline(always)]
+pub fn cull_distance(t: f32) -> f32 {
+    t + t.abs() * TIE_MARGIN
+}
+
 /// Tests the triangles of the leaf whose list starts at `first` against
 /// `[ray.tmin, *tmax]`. For closest hit (`ANY = false`) the nearest hit is
-/// kept in `best` and `tmax` shrinks to it; for any hit the first hit is
-/// stored and `true` returned, which ends the traversal.
+/// kept in `best` and `tmax` shrinks to its [`cull_distance`]; for any hit
+/// the first hit is stored and `true` returned, which ends the traversal.
 #[inline(always)]
 pub fn intersect_leaf<const ANY: bool>(
     index: &[u32],
@@ -33,7 +49,7 @@ pub fn intersect_leaf<const ANY: bool>(
                 return true;
             }
             if h.beats(best) {
-                *tmax = h.t;
+                *tmax = cull_distance(h.t);
                 *best = Some(h);
             }
         }
