@@ -20,6 +20,7 @@ pub mod accel;
 pub mod bench;
 pub mod bvh;
 pub mod error;
+pub mod fuzzing;
 pub mod geometry;
 pub mod rayfile;
 pub mod render;

@@ -450,3 +450,39 @@ fn bench_dst_reports_every_structure() {
         assert!(rows[4]["htree"]["bound_nodes"].as_u64().unwrap() > 0);
     }
 }
+
+#[test]
+#[cfg(unix)]
+fn an_interrupt_exits_130_and_leaves_no_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let child = Command::new(env!("CARGO_BIN_EXE_raytree"))
+        .args([
+            "render",
+            "-s",
+            "hairball:200k",
+            "--paper",
+            "-q",
+            "-o",
+            "out.png",
+            "--json",
+            "r.json",
+        ])
+        .current_dir(dir.path())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Long enough to be rendering, far from done (the render takes seconds).
+    std::thread::sleep(std::time::Duration::from_millis(700));
+    let status = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let out = child.wait_with_output().unwrap();
+    assert_eq!(out.status.code(), Some(130));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(err.contains("interrupted"), "{err}");
+    let left: Vec<_> = std::fs::read_dir(dir.path()).unwrap().collect();
+    assert!(left.is_empty(), "{left:?}");
+}

@@ -66,6 +66,33 @@ impl Accel for BruteForce {
 }
 
 impl BruteForce {
+    /// Whether `got` is the closest hit `want` (this oracle's answer for
+    /// `ray`), up to what f32 coordinates can tell apart.
+    ///
+    /// Equal hits agree. Otherwise `got` must be a genuine hit of its
+    /// triangle (this oracle's test of that triangle alone gives exactly it),
+    /// and its distance must match `want`'s to a relative 1e-5, measured in
+    /// space: of the larger of the distance travelled and the origin's
+    /// magnitude. f32 positions carry about 6e-8 of their magnitude, so two
+    /// coplanar triangles can be hit 1e-5 of `t` apart when a ray travels a
+    /// short way among large coordinates.
+    pub fn confirms(&self, got: Option<Hit>, want: Option<Hit>, ray: &Ray) -> bool {
+        match (got, want) {
+            (None, None) => true,
+            (Some(g), Some(w)) if g == w => true,
+            (Some(g), Some(w)) => {
+                // In f64: a direction of length 1e30 squares past f32.
+                let len = ray.direction().as_dvec3().length();
+                let scale = (w.t as f64 * len)
+                    .abs()
+                    .max(ray.origin().abs().max_element() as f64);
+                let close = ((g.t as f64 - w.t as f64) * len).abs() <= 1e-5 * scale;
+                close && self.hit_of(g.prim, ray) == Some(g)
+            }
+            _ => false,
+        }
+    }
+
     /// The hit of triangle `prim` alone over the ray's interval.
     pub fn hit_of(&self, prim: u32, ray: &Ray) -> Option<Hit> {
         self.triangles

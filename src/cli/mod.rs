@@ -1,5 +1,6 @@
 //! Command-line front end. Failures print one line on stderr and exit 1;
-//! usage errors exit 2 (clap's convention).
+//! usage errors exit 2 (clap's convention); an interrupt (Ctrl-C) removes
+//! the files being written, prints one line and exits 130 (128 + SIGINT).
 
 mod bench;
 mod common;
@@ -34,6 +35,12 @@ enum Command {
 
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
+    // Without a handler, Ctrl-C would leave a half-written temporary file.
+    let _ = ctrlc::set_handler(|| {
+        raytree::render::remove_unfinished_files();
+        eprintln!("raytree: interrupted; unfinished output files removed");
+        std::process::exit(130);
+    });
     let result = match cli.command {
         Command::Render(a) => render::run(a),
         Command::Trace(a) => trace::run(a),

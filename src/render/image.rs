@@ -68,8 +68,23 @@ impl Image {
     }
 }
 
+/// Temporary files being written by [`write_atomically`], for
+/// [`remove_unfinished_files`].
+static UNFINISHED: std::sync::Mutex<Vec<std::path::PathBuf>> = std::sync::Mutex::new(Vec::new());
+
+/// Removes the temporary files of writes still in progress. An interrupt
+/// handler calls it before the process exits, so that an interrupted run
+/// leaves no partial file behind.
+pub fn remove_unfinished_files() {
+    let files = UNFINISHED.lock().unwrap_or_else(|e| e.into_inner());
+    for f in files.iter() {
+        let _ = std::fs::remove_file(f);
+    }
+}
+
 /// Runs `f` on a temporary file beside `path`, then renames it to `path`.
-/// On failure the temporary file is removed and `path` is untouched.
+/// On failure the temporary file is removed and `path` is untouched; on an
+/// interrupt, [`remove_unfinished_files`] removes it.
 pub fn write_atomically(
     path: &Path,
     f: impl FnOnce(&mut std::io::BufWriter<std::fs::File>) -> std::io::Result<()>,
@@ -93,6 +108,8 @@ pub fn write_atomically(
         name.to_string_lossy(),
         std::process::id()
     ));
+    let unfinished = || UNFINISHED.lock().unwrap_or_else(|e| e.into_inner());
+    unfinished().push(tmp.clone());
     let result = (|| {
         let mut w = std::io::BufWriter::new(std::fs::File::create(&tmp)?);
         f(&mut w)?;
@@ -102,12 +119,33 @@ pub fn write_atomically(
     if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
     }
+    unfinished().retain(|p| *p != tmp);
     result.map_err(io)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_interrupted_write_leaves_nothing() {
+        let dir = std::env::temp_dir().join(format!("raytree-int-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let out = dir.join("out.bin");
+        // The interrupt handler's cleanup, run while the file is half written.
+        let r = write_atomically(&out, |w| {
+            use std::io::Write;
+            w.write_all(b"half")?;
+            w.flush()?;
+            assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1);
+            remove_unfinished_files();
+            Err(std::io::Error::other("interrupted"))
+        });
+        assert!(r.is_err());
+        assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0);
+        assert!(UNFINISHED.lock().unwrap().is_empty());
+        std::fs::remove_dir(&dir).unwrap();
+    }
 
     #[test]
     fn srgb_encoding_endpoints() {

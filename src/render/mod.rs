@@ -11,7 +11,7 @@ mod path;
 pub mod rayset;
 mod sampling;
 
-pub use self::image::{write_atomically, Image};
+pub use self::image::{remove_unfinished_files, write_atomically, Image};
 pub use ao::AoSettings;
 pub use ao_phased::{render_ao_phased, Phase, PhasedAo};
 pub use path::PathSettings;

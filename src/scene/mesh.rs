@@ -14,13 +14,24 @@ pub struct Mesh {
 impl Mesh {
     /// Loads an OBJ (`.obj`) or PLY (`.ply`) file and validates it.
     pub fn load(path: &Path) -> Result<Mesh> {
+        let bytes = std::fs::read(path).map_err(|source| Error::Io {
+            path: path.into(),
+            source,
+        })?;
+        Self::parse(&bytes, path)
+    }
+
+    /// Parses the contents `bytes` of an OBJ or PLY file, the format chosen
+    /// by `path`'s extension (`path` also names the file in errors), and
+    /// validates the mesh.
+    pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
         let ext = path
             .extension()
             .and_then(|e| e.to_str())
             .map(|e| e.to_ascii_lowercase());
         let mesh = match ext.as_deref() {
-            Some("obj") => super::obj::load(path)?,
-            Some("ply") => super::ply::load(path)?,
+            Some("obj") => super::obj::parse(bytes, path)?,
+            Some("ply") => super::ply::parse(bytes, path)?,
             _ => {
                 return Err(Error::Parse {
                     path: path.into(),

@@ -5,24 +5,20 @@
 use super::Mesh;
 use crate::error::{Error, Result};
 use glam::Vec3;
-use std::io::BufReader;
 use std::path::Path;
 
-pub fn load(path: &Path) -> Result<Mesh> {
-    let file = std::fs::File::open(path).map_err(|source| Error::Io {
-        path: path.into(),
-        source,
-    })?;
+/// Parses the OBJ text `bytes`; `path` names it in errors.
+pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
     let opts = tobj::LoadOptions {
         triangulate: true,
         single_index: false,
         ignore_points: true,
         ignore_lines: true,
     };
-    let loaded = tobj::load_obj_buf(&mut BufReader::new(file), &opts, |_| Ok(Default::default()));
+    let loaded = tobj::load_obj_buf(&mut &bytes[..], &opts, |_| Ok(Default::default()));
     let models = match loaded {
         Ok((models, _)) => models,
-        Err(e) => return Err(locate(path, &format!("not a valid OBJ file ({e})"))),
+        Err(e) => return Err(locate(bytes, path, &format!("not a valid OBJ file ({e})"))),
     };
     let mut mesh = Mesh::default();
     for m in &models {
@@ -41,16 +37,15 @@ pub fn load(path: &Path) -> Result<Mesh> {
         );
     }
     if mesh.positions.iter().any(|p| !p.is_finite()) {
-        return Err(locate(path, "a vertex has a non-finite coordinate"));
+        return Err(locate(bytes, path, "a vertex has a non-finite coordinate"));
     }
     Ok(mesh)
 }
 
-/// An error for `path`, with the first offending line if a scan finds one.
-fn locate(path: &Path, fallback: &str) -> Error {
-    let found = std::fs::read_to_string(path)
-        .ok()
-        .and_then(|text| first_bad_line(&text));
+/// An error for `path`, with the first offending line of its text `bytes`
+/// if a scan finds one.
+fn locate(bytes: &[u8], path: &Path, fallback: &str) -> Error {
+    let found = first_bad_line(&String::from_utf8_lossy(bytes));
     match found {
         Some((line, message)) => Error::Parse {
             path: path.into(),

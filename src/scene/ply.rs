@@ -7,28 +7,24 @@ use crate::error::{Error, Result};
 use glam::Vec3;
 use ply_rs_bw::parser::Parser;
 use ply_rs_bw::ply::{DefaultElement, Encoding, Property};
-use std::io::BufReader;
 use std::path::Path;
 
-pub fn load(path: &Path) -> Result<Mesh> {
+/// Parses the PLY file `bytes`; `path` names it in errors.
+pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
     let err = |line: Option<usize>, message: String| Error::Parse {
         path: path.into(),
         line,
         message,
     };
-    let file = std::fs::File::open(path).map_err(|source| Error::Io {
-        path: path.into(),
-        source,
-    })?;
     let ply = Parser::<DefaultElement>::new()
-        .read_ply(&mut BufReader::new(file))
+        .read_ply(&mut &bytes[..])
         .map_err(|e| err(e.line(), format!("not a valid PLY file: {e}")))?;
 
     // The text line of element `i` of `element`, for ASCII files: one element
     // per line, elements in header order, after the header.
     let ascii = ply.header.encoding == Encoding::Ascii;
     let header_lines = if ascii {
-        count_header_lines(path)
+        count_header_lines(bytes)
     } else {
         None
     };
@@ -98,15 +94,9 @@ pub fn load(path: &Path) -> Result<Mesh> {
 }
 
 /// Lines up to and including `end_header`.
-fn count_header_lines(path: &Path) -> Option<usize> {
-    use std::io::BufRead;
-    let file = std::fs::File::open(path).ok()?;
-    let mut n = 0;
-    for line in BufReader::new(file).split(b'\n') {
-        n += 1;
-        if line.ok()?.trim_ascii() == b"end_header" {
-            return Some(n);
-        }
-    }
-    None
+fn count_header_lines(bytes: &[u8]) -> Option<usize> {
+    bytes
+        .split(|&b| b == b'\n')
+        .position(|line| line.trim_ascii() == b"end_header")
+        .map(|i| i + 1)
 }

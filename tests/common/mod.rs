@@ -101,30 +101,8 @@ pub fn shared_scene(name: &str) -> Option<std::path::PathBuf> {
     p.exists().then_some(p)
 }
 
-/// The same closest hit, up to what f32 coordinates can tell apart.
-///
-/// The hit must be a genuine hit of its triangle (the oracle's test of that
-/// triangle alone gives exactly it), and its distance must match the
-/// oracle's to a relative 1e-5, where "relative" is measured in space: of
-/// the larger of the distance travelled and the origin's magnitude. f32
-/// positions carry about 6e-8 of their magnitude, so two coplanar triangles
-/// (a tile's bottom on the board frame's top) can be hit 1e-5 of `t` apart
-/// when a ray travels a short way among large coordinates. In practice
-/// almost every hit is bit-identical: the same triangle test and tie rule
-/// run in both.
+/// The same closest hit, up to what f32 coordinates can tell apart: see
+/// [`BruteForce::confirms`].
 pub fn same_closest(got: Option<Hit>, want: Option<Hit>, oracle: &BruteForce, r: &Ray) -> bool {
-    match (got, want) {
-        (None, None) => true,
-        (Some(g), Some(w)) if g == w => true,
-        (Some(g), Some(w)) => {
-            // In f64: a direction of length 1e30 squares past f32.
-            let len = r.direction().as_dvec3().length();
-            let scale = (w.t as f64 * len)
-                .abs()
-                .max(r.origin().abs().max_element() as f64);
-            let close = ((g.t as f64 - w.t as f64) * len).abs() <= 1e-5 * scale;
-            close && oracle.hit_of(g.prim, r) == Some(g)
-        }
-        _ => false,
-    }
+    oracle.confirms(got, want, r)
 }

@@ -137,7 +137,26 @@ impl DstNode {
         Ok(())
     }
 
-    /// Decodes the node whose header word is `words[0]`.
+    /// Decodes untrusted words: `None` unless `words` starts with a whole,
+    /// well-formed node (a known header with its unused bits clear, a
+    /// first-child size of 1 or 3, an axis below 3, a known axis pair), so
+    /// that encoding the result gives back exactly those words.
+    pub fn try_decode(words: &[u32]) -> Option<DstNode> {
+        let h = *words.first()? >> OFFSET_BITS;
+        let (well_formed, len) = if h & 0b10_0000 != 0 {
+            ((h >> 2) & 0b11 != 0b10, 3)
+        } else if h & 0b1_0000 == 0 {
+            ((h >> 2) & 0b11 != 3 && matches!(h & 0b11, 1 | 3), 3)
+        } else if h & 0b100 != 0 {
+            (h == 0b01_1100, 1)
+        } else {
+            (h & 0b11 != 3, 3)
+        };
+        (well_formed && words.len() >= len).then(|| Self::decode(words))
+    }
+
+    /// Decodes the node whose header word is `words[0]`, from a tree this
+    /// crate encoded (see [`Self::try_decode`] for untrusted words).
     #[inline(always)]
     pub fn decode(words: &[u32]) -> DstNode {
         let w = words[0];

@@ -94,7 +94,26 @@ impl HNode {
         Ok(())
     }
 
-    /// Decodes the node whose header is `words[0]`.
+    /// Decodes untrusted words: `None` unless `words` starts with a whole,
+    /// well-formed node (a known kind, an axis below 3, a non-empty face
+    /// mask, unused bits clear), so that encoding the result gives back
+    /// exactly those words.
+    pub fn try_decode(words: &[u32]) -> Option<HNode> {
+        let w = *words.first()?;
+        let (well_formed, len) = match w >> 30 {
+            KIND_SPLIT => (w >> OFFSET_BITS & 3 != 3, 3),
+            KIND_BOUND => (
+                w & !(KIND_BOUND << 30) < 64 && w & 63 != 0,
+                1 + (w & 63).count_ones() as usize,
+            ),
+            KIND_LEAF => (true, 1),
+            _ => (false, 1),
+        };
+        (well_formed && words.len() >= len).then(|| Self::decode(words))
+    }
+
+    /// Decodes the node whose header is `words[0]`, from a tree this crate
+    /// encoded (see [`Self::try_decode`] for untrusted words).
     #[inline(always)]
     pub fn decode(words: &[u32]) -> HNode {
         let w = words[0];
