@@ -23,20 +23,38 @@ struct InfoReport {
     scene: SceneReport,
     bvh: BuildStats,
     structures: Vec<StructureInfo>,
+    /// Structures that cannot be built for this scene, with the limit that
+    /// stops them.
+    refused: Vec<Refused>,
+}
+
+#[derive(Serialize)]
+struct Refused {
+    structure: StructureKind,
+    error: String,
 }
 
 pub fn run(args: InfoArgs) -> Result<()> {
     let (scene, scene_report) = common::load_scene(&args.scene)?;
     let (bvh, bvh_stats) = common::build_bvh(&scene, &args.scene);
     let mut structures = Vec::new();
+    let mut refused = Vec::new();
+    // One structure at a time, dropped before the next: a big scene needs
+    // only one derived structure in memory beside the BVH.
     for &s in StructureKind::all() {
-        let (_, info) = Built::new(s, TraversalKind::Stack, &bvh, scene.triangles.clone())?;
-        structures.push(info);
+        match Built::new(s, TraversalKind::Stack, &bvh, scene.triangles.clone()) {
+            Ok((_, info)) => structures.push(info),
+            Err(e) => refused.push(Refused {
+                structure: s,
+                error: e.to_string(),
+            }),
+        }
     }
     let r = InfoReport {
         scene: scene_report,
         bvh: bvh_stats,
         structures,
+        refused,
     };
     let (lo, hi) = (r.scene.bounds_min, r.scene.bounds_max);
     println!("scene       {}", r.scene.scene);
@@ -78,6 +96,9 @@ pub fn run(args: InfoArgs) -> Result<()> {
             s.leaves,
             s.conversion_seconds
         );
+    }
+    for x in &r.refused {
+        println!("| {} | refused: {} |||||||", x.structure.name(), x.error);
     }
     let dsts: Vec<_> = r
         .structures
