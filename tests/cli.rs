@@ -486,3 +486,49 @@ fn an_interrupt_exits_130_and_leaves_no_file() {
     let left: Vec<_> = std::fs::read_dir(dir.path()).unwrap().collect();
     assert!(left.is_empty(), "{left:?}");
 }
+
+#[test]
+fn heatmaps_are_written_for_each_measure() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = ok(&raytree(
+        &[
+            "render",
+            "-s",
+            "chess:3000",
+            "-a",
+            "dst",
+            "--width",
+            "64",
+            "--height",
+            "48",
+            "--heatmap",
+            "nodes,planes,triangles",
+            "-o",
+            "img.png",
+            "--json",
+            "r.json",
+            "-q",
+        ],
+        dir.path(),
+    ));
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("r.json")).unwrap()).unwrap();
+    let maps = json["heatmaps"].as_array().unwrap();
+    assert_eq!(maps.len(), 3);
+    for (m, name) in maps.iter().zip(["nodes", "planes", "triangles"]) {
+        assert_eq!(m["measure"], name);
+        assert!(m["scale_top"].as_u64().unwrap() > 0);
+        assert!(m["max"].as_u64().unwrap() >= m["scale_top"].as_u64().unwrap());
+        let file = dir.path().join(format!("img-{name}.png"));
+        assert!(out.contains(&format!("img-{name}.png")));
+        // The image, a one-pixel gap and an 8-pixel colour bar.
+        let png = image::open(&file).unwrap().to_rgb8();
+        assert_eq!(png.dimensions(), (64, 48 + 1 + 8));
+        // The bar runs from dark to white.
+        let (l, r) = (png.get_pixel(0, 56).0, png.get_pixel(63, 56).0);
+        assert!(
+            l.iter().all(|&c| c < 40) && r == [255, 255, 255],
+            "{l:?} {r:?}"
+        );
+    }
+}

@@ -5,6 +5,7 @@ use clap::{Args, ValueEnum};
 use raytree::accel::{Accel, StructureInfo, WithAccel};
 use raytree::bvh::BuildStats;
 use raytree::error::{Error, Result};
+use raytree::render::heatmap::{HeatmapInfo, Measure};
 use raytree::render::{self, AoSettings, Integrator, PathSettings, Rendered};
 use raytree::scene::Scene;
 use raytree::stats::{Counters, PerRay};
@@ -61,6 +62,12 @@ pub struct RenderArgs {
     /// Also write the report as JSON to this file.
     #[arg(long)]
     json: Option<PathBuf>,
+    /// Also write heat maps of the work per pixel (all its rays), comma-
+    /// separated: nodes, planes, triangles; each to OUT's name with
+    /// "-nodes" (etc.) before the extension, as PNG with the colour scale
+    /// (0 to the 99.5th percentile of the pixels' counts) beneath.
+    #[arg(long, value_enum, value_delimiter = ',')]
+    heatmap: Vec<Measure>,
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -90,6 +97,22 @@ struct RenderReport {
     counters: Counters,
     per_ray: PerRay,
     image: PathBuf,
+    heatmaps: Vec<Heatmap>,
+}
+
+#[derive(Serialize)]
+struct Heatmap {
+    #[serde(flatten)]
+    info: HeatmapInfo,
+    file: PathBuf,
+}
+
+/// `out` with `-suffix` before its extension, as PNG.
+fn beside(out: &std::path::Path, suffix: &str) -> PathBuf {
+    let stem = out
+        .file_stem()
+        .map_or("raytree".into(), |s| s.to_string_lossy());
+    out.with_file_name(format!("{stem}-{suffix}.png"))
 }
 
 struct RenderWith<'a> {
@@ -190,6 +213,12 @@ fn run_in_pool(args: &RenderArgs) -> Result<()> {
         quiet: args.quiet,
     });
     rendered.image.save(&args.out)?;
+    let mut heatmaps = Vec::new();
+    for &m in &args.heatmap {
+        let file = beside(&args.out, m.name());
+        let info = rendered.work.save(m, &file)?;
+        heatmaps.push(Heatmap { info, file });
+    }
 
     let c = rendered.counters;
     let report = RenderReport {
@@ -208,6 +237,7 @@ fn run_in_pool(args: &RenderArgs) -> Result<()> {
         counters: c,
         per_ray: c.per_ray(),
         image: args.out.clone(),
+        heatmaps,
     };
     print_report(&report);
     if let Some(p) = &args.json {
@@ -256,4 +286,14 @@ fn print_report(r: &RenderReport) {
         r.per_ray.nodes, r.per_ray.planes, r.per_ray.triangles
     );
     println!("wrote      {}", r.image.display());
+    for h in &r.heatmaps {
+        println!(
+            "heat map   {} per pixel: mean {:.1}, largest {}; scale 0 (dark) to {} (white, the 99.5th percentile): {}",
+            h.info.measure.name(),
+            h.info.mean,
+            h.info.max,
+            h.info.scale_top,
+            h.file.display()
+        );
+    }
 }

@@ -6,6 +6,7 @@
 
 mod ao;
 mod ao_phased;
+pub mod heatmap;
 mod image;
 mod path;
 pub mod rayset;
@@ -18,7 +19,7 @@ pub use path::PathSettings;
 
 use crate::accel::Accel;
 use crate::scene::Scene;
-use crate::stats::{Counters, Stats};
+use crate::stats::{Counters, Stats, Tally};
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -33,6 +34,8 @@ pub enum Integrator {
 #[derive(Clone, Debug)]
 pub struct Rendered {
     pub image: Image,
+    /// The work of each pixel's rays, for heat maps.
+    pub work: heatmap::WorkImage,
     /// Rays traced (eye, AO and bounce rays) and, when counted, the work.
     pub counters: Counters,
     pub seconds: f64,
@@ -62,7 +65,7 @@ pub fn render<A: Accel>(
         width,
         height,
     };
-    let results: Vec<(Vec<f32>, Counters)> = tiles
+    let results: Vec<(Vec<(f32, Tally)>, Counters)> = tiles
         .par_iter()
         .map(|&(tx, ty)| {
             let mut c = Counters::default();
@@ -72,19 +75,26 @@ pub fn render<A: Accel>(
         })
         .collect();
     let mut image = Image::new(width, height);
+    let mut work = heatmap::WorkImage {
+        width,
+        height,
+        pixels: vec![Tally::default(); width * height],
+    };
     let mut counters = Counters::default();
     for (&(tx, ty), (px, c)) in tiles.iter().zip(results) {
         counters += c;
         let mut k = 0;
         for y in ty * TILE..((ty + 1) * TILE).min(height) {
             for x in tx * TILE..((tx + 1) * TILE).min(width) {
-                image.set(x, y, px[k]);
+                image.set(x, y, px[k].0);
+                work.pixels[y * width + x] = px[k].1;
                 k += 1;
             }
         }
     }
     Rendered {
         image,
+        work,
         counters,
         seconds: start.elapsed().as_secs_f64(),
     }
@@ -113,21 +123,29 @@ impl RaySink for Counters {
     }
 }
 
-fn render_tile<A: Accel, S: RaySink>(
+/// A tile's pixel values, each with the work of its rays.
+fn render_tile<A: Accel>(
     accel: &A,
     ctx: &Ctx,
     integrator: &Integrator,
     tx: usize,
     ty: usize,
-    stats: &mut S,
-) -> Vec<f32> {
+    stats: &mut Counters,
+) -> Vec<(f32, Tally)> {
     let mut out = Vec::with_capacity(TILE * TILE);
     for y in ty * TILE..((ty + 1) * TILE).min(ctx.height) {
         for x in tx * TILE..((tx + 1) * TILE).min(ctx.width) {
-            out.push(match integrator {
+            let before = *stats;
+            let v = match integrator {
                 Integrator::Ao(s) => ao::pixel(accel, ctx, s, x, y, stats),
                 Integrator::Path(s) => path::pixel(accel, ctx, s, x, y, stats),
-            });
+            };
+            let work = Tally {
+                nodes: (stats.nodes - before.nodes) as u32,
+                planes: (stats.planes - before.planes) as u32,
+                triangles: (stats.triangles - before.triangles) as u32,
+            };
+            out.push((v, work));
         }
     }
     out
