@@ -532,3 +532,22 @@ fn heatmaps_are_written_for_each_measure() {
         );
     }
 }
+
+#[test]
+fn a_scene_too_big_for_memory_is_refused_before_it_is_built() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_raytree"))
+        .args(["render", "-s", "chess:64000", "-o", "a.png"])
+        .env(raytree::scene::memory::LIMIT_VARIABLE, "1000000")
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(
+        err.contains("chess:64000") && err.contains("GiB") && err.contains("smaller scene"),
+        "{err}"
+    );
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+}

@@ -1,6 +1,7 @@
 //! Meshes, their loaders, built-in procedural scenes and cameras.
 
 mod camera;
+pub mod memory;
 mod mesh;
 mod obj;
 mod ply;
@@ -41,6 +42,11 @@ impl Scene {
     pub fn load(path: impl AsRef<Path>) -> Result<Scene> {
         let path = path.as_ref();
         let mesh = Mesh::load(path)?;
+        memory::check_fits(
+            &path.display().to_string(),
+            mesh.triangle_count() as u64,
+            memory::available_bytes(),
+        )?;
         let camera = Camera::framing(&mesh.bounds());
         Ok(Scene::new(path.display().to_string(), mesh, camera))
     }

@@ -126,7 +126,7 @@ impl DstNode {
         };
         if offset > OFFSET_MASK {
             return Err(Error::Limit(format!(
-                "dual-split tree offset {offset} does not fit the node's {OFFSET_BITS}-bit offset field (at most {OFFSET_MASK}); the tree or its triangle index list is too large for this encoding"
+                "dual-split tree offset {offset} does not fit the node's {OFFSET_BITS}-bit offset field (at most {OFFSET_MASK}); the tree or its triangle index list is too large for this encoding; use a smaller scene, or a structure without this limit (bvh, cbvh)"
             )));
         }
         out.push(header << OFFSET_BITS | offset);

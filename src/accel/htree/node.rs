@@ -59,7 +59,7 @@ impl HNode {
     pub fn encode(&self, out: &mut Vec<u32>) -> Result<()> {
         let too_big = |what: &str, v: u32, max: u32| {
             Err(Error::Limit(format!(
-                "H-tree {what} {v} does not fit its field (at most {max}); the tree is too large for this encoding"
+                "H-tree {what} {v} does not fit its field (at most {max}); the tree is too large for this encoding; use a smaller scene, or a structure without this limit (bvh, cbvh)"
             )))
         };
         match *self {
