@@ -398,11 +398,43 @@ fn bench_dst_reports_every_structure() {
             "-q",
             "--json",
             "d.json",
+            "--report",
+            "rep",
         ],
         dir.path(),
     ));
     let json: serde_json::Value =
         serde_json::from_slice(&std::fs::read(dir.path().join("d.json")).unwrap()).unwrap();
+    // The report: the same JSON, a CSV row per scene and structure with
+    // finite numbers, and an HTML page holding both scenes' charts, frames
+    // and heat maps.
+    let rep = dir.path().join("rep");
+    let same: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(rep.join("dst.json")).unwrap()).unwrap();
+    assert_eq!(same, json);
+    let csv = std::fs::read_to_string(rep.join("dst.csv")).unwrap();
+    let lines: Vec<&str> = csv.lines().collect();
+    assert_eq!(lines[0], raytree::bench::report::CSV_HEADER);
+    assert_eq!(lines.len(), 1 + 2 * 6);
+    for l in &lines[1..] {
+        let f: Vec<&str> = l.split(',').collect();
+        assert_eq!(f.len(), 19, "{l}");
+        for v in &f[3..18] {
+            assert!(v.parse::<f64>().unwrap().is_finite(), "{l}");
+        }
+    }
+    let html = std::fs::read_to_string(rep.join("report.html")).unwrap();
+    assert_eq!(html.matches("<section class=\"scene\">").count(), 2);
+    assert_eq!(
+        html.matches("<svg").count(),
+        4,
+        "storage and frame time per scene"
+    );
+    // A frame and 4 heat maps (planes and triangles, bvh and dst) per scene.
+    assert_eq!(html.matches("src=\"data:image/png;base64,").count(), 2 * 5);
+    for s in ["bvh", "dst", "dst-similar", "bih", "htree", "cbvh"] {
+        assert!(html.contains(&format!("<td>{s}</td>")), "{s} missing");
+    }
     let scenes = json.as_array().unwrap();
     assert_eq!(scenes.len(), 2);
     for scene in scenes {

@@ -14,6 +14,7 @@ use crate::accel::htree::HtreeStats;
 use crate::accel::{Accel, Built, StructureKind, TraversalKind, WithAccel};
 use crate::bvh::{BuildOptions, BuildStats, Bvh};
 use crate::error::Result;
+use crate::render::heatmap::Measure;
 use crate::render::{render, Image, Integrator, PathSettings, Rendered};
 use crate::scene::Scene;
 use crate::stats::PerRay;
@@ -105,6 +106,30 @@ pub struct SceneResult {
     pub threads: usize,
     pub path: PathSettings,
     pub rows: Vec<Row>,
+    /// The rendered frame and heat maps, for the HTML report.
+    #[serde(skip)]
+    pub pictures: Pictures,
+}
+
+/// Pictures of one scene, as PNG bytes.
+#[derive(Clone, Debug, Default)]
+pub struct Pictures {
+    /// The first frame (every structure renders the same one; see the
+    /// rows' `same_image`).
+    pub frame: Vec<u8>,
+    /// Heat maps of plane and triangle tests per pixel for the BVH and the
+    /// dual-split tree, each measure on one scale (the paper's Figure 1).
+    pub heatmaps: Vec<Heatmap>,
+}
+
+#[derive(Clone, Debug)]
+pub struct Heatmap {
+    pub structure: StructureKind,
+    pub measure: Measure,
+    /// The count drawn white.
+    pub scale_top: u32,
+    pub mean: f64,
+    pub png: Vec<u8>,
 }
 
 struct Frame<'a> {
@@ -200,7 +225,39 @@ pub fn run_scene(scene: &Scene, opts: &Options, tick: &dyn Fn()) -> Result<Scene
             row.same_image = firsts[k].as_ref().expect("rendered").image == *image;
         }
     }
+    let mut pictures = Pictures {
+        frame: firsts[0]
+            .as_ref()
+            .map(|r| r.image.to_png())
+            .unwrap_or_default(),
+        heatmaps: Vec::new(),
+    };
+    let mapped: Vec<(StructureKind, &Rendered)> = [StructureKind::Bvh, StructureKind::Dst]
+        .into_iter()
+        .filter_map(|k| {
+            let i = opts.structures.iter().position(|&s| s == k)?;
+            Some((k, firsts[i].as_ref()?))
+        })
+        .collect();
+    for m in [Measure::Planes, Measure::Triangles] {
+        let top = mapped
+            .iter()
+            .map(|(_, r)| r.work.percentile_top(m))
+            .max()
+            .unwrap_or(0);
+        for &(k, r) in &mapped {
+            let (png, info) = r.work.png(m, Some(top));
+            pictures.heatmaps.push(Heatmap {
+                structure: k,
+                measure: m,
+                scale_top: top,
+                mean: info.mean,
+                png,
+            });
+        }
+    }
     Ok(SceneResult {
+        pictures,
         scene: scene.name.clone(),
         triangles: scene.mesh.triangle_count(),
         bvh: bvh.stats.clone(),

@@ -2,5 +2,6 @@
 //! command and the tests.
 
 pub mod dst;
+pub mod report;
 pub mod stackless;
 pub mod svg;

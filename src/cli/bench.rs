@@ -3,9 +3,9 @@
 use super::common::{self, BuilderArg};
 use clap::{Args, Subcommand};
 use raytree::accel::StructureKind;
-use raytree::bench::dst;
 use raytree::bench::stackless::{self, Preset};
 use raytree::bench::svg::{stacked_bars, Bar};
+use raytree::bench::{dst, report};
 use raytree::bvh::{BuildOptions, Builder};
 use raytree::error::Result;
 use raytree::prelude::Vec3;
@@ -58,6 +58,10 @@ pub struct DstArgs {
     /// Also write the results as JSON to this file.
     #[arg(long)]
     json: Option<PathBuf>,
+    /// Write report.html (tables, bar charts, frames and heat maps, self-
+    /// contained), dst.csv and dst.json into this directory.
+    #[arg(long)]
+    report: Option<PathBuf>,
     /// No progress bar.
     #[arg(long, short = 'q')]
     quiet: bool,
@@ -164,6 +168,7 @@ fn run_dst(a: DstArgs) -> Result<()> {
     let frames = scenes.len() * opts.frames * opts.structures.len();
     let bar = common::progress(frames as u64, "bench dst", a.quiet);
     let mut results = Vec::new();
+    let mut tables = Vec::new();
     for spec in &scenes {
         bar.set_message(format!("bench dst: {spec}"));
         let mut scene = Scene::from_spec(spec)?;
@@ -172,13 +177,31 @@ fn run_dst(a: DstArgs) -> Result<()> {
         cam.target = a.look_at.unwrap_or(cam.target);
         cam.fov_y = a.fov.unwrap_or(cam.fov_y);
         let r = pool.install(|| dst::run_scene(&scene, &opts, &|| bar.inc(1)))?;
-        bar.suspend(|| println!("{}", dst::markdown(&r)));
+        let md = dst::markdown(&r);
+        bar.suspend(|| println!("{md}"));
+        tables.push(md);
         results.push(r);
     }
     bar.finish_and_clear();
     println!("vs bvh: storage, mean frame time and per-ray work over the uncompressed BVH's (52-byte inner nodes, 4-byte leaves), same run; plane tests count 6 per box and 2 per two-plane node.");
     if let Some(p) = &a.json {
         common::write_json(p, &results)?;
+    }
+    if let Some(dir) = &a.report {
+        std::fs::create_dir_all(dir).map_err(|source| raytree::error::Error::Io {
+            path: dir.into(),
+            source,
+        })?;
+        let write = |name: &str, text: String| {
+            raytree::render::write_atomically(&dir.join(name), |w| {
+                use std::io::Write;
+                w.write_all(text.as_bytes())
+            })
+        };
+        write("report.html", report::html(&results, &tables))?;
+        write("dst.csv", report::csv(&results))?;
+        common::write_json(&dir.join("dst.json"), &results)?;
+        println!("report: {}", dir.join("report.html").display());
     }
     Ok(())
 }

@@ -7,6 +7,7 @@ use super::image::write_atomically;
 use crate::error::Result;
 use crate::stats::Tally;
 use serde::Serialize;
+use std::io::Write;
 use std::path::Path;
 
 /// Which counter a heat map shows.
@@ -99,6 +100,21 @@ impl WorkImage {
     /// [`Self::save`] with the top of the scale given, so that maps of
     /// several structures share one scale.
     pub fn save_scaled(&self, m: Measure, path: &Path, max: Option<u32>) -> Result<HeatmapInfo> {
+        let (png, info) = self.png(m, max);
+        write_atomically(path, |out| out.write_all(&png))?;
+        Ok(info)
+    }
+
+    /// The 99.5th percentile of `m` over the pixels: the default top of
+    /// the scale.
+    pub fn percentile_top(&self, m: Measure) -> u32 {
+        let mut v = self.values(m);
+        v.sort_unstable();
+        v.get(v.len() * 995 / 1000).copied().unwrap_or(0)
+    }
+
+    /// The heat map of [`Self::save_scaled`] as PNG bytes.
+    pub fn png(&self, m: Measure, max: Option<u32>) -> (Vec<u8>, HeatmapInfo) {
         let values = self.values(m);
         let mut sorted = values.clone();
         sorted.sort_unstable();
@@ -122,18 +138,18 @@ impl WorkImage {
                 rgb.extend(colour(x as f32 / (w.max(2) - 1) as f32));
             }
         }
-        write_atomically(path, |out| {
-            image::RgbImage::from_raw(w as u32, h as u32, rgb)
-                .expect("buffer matches size")
-                .write_to(out, image::ImageFormat::Png)
-                .map_err(std::io::Error::other)
-        })?;
-        Ok(HeatmapInfo {
+        let mut png = Vec::new();
+        image::RgbImage::from_raw(w as u32, h as u32, rgb)
+            .expect("buffer matches size")
+            .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+            .expect("PNG encoding into memory");
+        let info = HeatmapInfo {
             measure: m,
             scale_top: top,
             max: largest,
             mean,
-        })
+        };
+        (png, info)
     }
 }
 

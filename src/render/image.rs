@@ -47,6 +47,16 @@ impl Image {
             .collect()
     }
 
+    /// The image as PNG bytes (8-bit grey, sRGB).
+    pub fn to_png(&self) -> Vec<u8> {
+        let mut png = Vec::new();
+        image::GrayImage::from_raw(self.width as u32, self.height as u32, self.to_srgb8())
+            .expect("buffer matches size")
+            .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+            .expect("PNG encoding into memory");
+        png
+    }
+
     /// Writes a PNG (grey) or, for a `.ppm` path, a binary PPM (P6, RGB).
     pub fn save(&self, path: &Path) -> Result<()> {
         let grey = self.to_srgb8();

@@ -1,0 +1,169 @@
+//! The `bench dst` report files: one self-contained HTML page (tables, SVG
+//! bar charts like the dual-split paper's Figure 10, the rendered frames
+//! and per-pixel heat maps like its Figure 1, images inlined as data URIs)
+//! and a CSV file with one row per scene and structure.
+
+use super::dst::SceneResult;
+use super::svg::{stacked_bars, Bar};
+use base64::Engine;
+
+/// The CSV columns, in order.
+pub const CSV_HEADER: &str = "scene,triangles,structure,bytes,node_bytes,index_bytes,storage_ratio,nodes,conversion_seconds,frame_seconds,frame_ratio,mrays_per_second,nodes_per_ray,planes_per_ray,triangles_per_ray,nodes_ratio,planes_ratio,triangles_ratio,same_image";
+
+/// One CSV row per scene and structure.
+pub fn csv(results: &[SceneResult]) -> String {
+    let mut s = String::from(CSV_HEADER);
+    s.push('\n');
+    for r in results {
+        for row in &r.rows {
+            s += &format!(
+                "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+                csv_field(&r.scene),
+                r.triangles,
+                row.structure.name(),
+                row.bytes,
+                row.node_bytes,
+                row.index_bytes,
+                row.storage_ratio,
+                row.nodes,
+                row.conversion_seconds,
+                row.frame_seconds,
+                row.frame_ratio,
+                row.mrays_per_second,
+                row.per_ray.nodes,
+                row.per_ray.planes,
+                row.per_ray.triangles,
+                row.nodes_ratio,
+                row.planes_ratio,
+                row.triangles_ratio,
+                row.same_image
+            );
+        }
+    }
+    s
+}
+
+/// A field quoted when it holds a comma, quote or line break.
+fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_owned()
+    }
+}
+
+fn escape(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}
+
+fn img(png: &[u8], alt: &str) -> String {
+    format!(
+        r#"<img alt="{}" src="data:image/png;base64,{}">"#,
+        escape(alt),
+        base64::engine::general_purpose::STANDARD.encode(png)
+    )
+}
+
+/// A one-segment bar chart of `value` per structure of one scene.
+fn chart(
+    r: &SceneResult,
+    title: &str,
+    unit: &str,
+    value: impl Fn(&super::dst::Row) -> (f64, f64),
+) -> String {
+    let bars: Vec<Bar> = r
+        .rows
+        .iter()
+        .map(|row| {
+            let (v, ratio) = value(row);
+            Bar {
+                label: row.structure.name().to_owned(),
+                segments: vec![v],
+                note: format!("{:.1}% of bvh", 100.0 * ratio),
+            }
+        })
+        .collect();
+    stacked_bars(&format!("{}: {title}", r.scene), &[title], unit, &bars)
+}
+
+/// The HTML report; `markdown` holds each scene's table as the command
+/// printed it.
+pub fn html(results: &[SceneResult], markdown: &[String]) -> String {
+    let mut s = String::from(
+        r#"<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8"><title>raytree bench dst</title>
+<style>
+body { font-family: sans-serif; margin: 2em; max-width: 1200px; }
+table { border-collapse: collapse; margin: 1em 0; font-size: 13px; }
+td, th { border: 1px solid #ccc; padding: 3px 6px; text-align: right; }
+td:first-child, th:first-child { text-align: left; }
+figure { display: inline-block; margin: 0.5em; vertical-align: top; }
+figcaption { font-size: 13px; }
+img { image-rendering: pixelated; max-width: 512px; }
+</style></head><body>
+<h1>Dual-split trees and their baselines: storage, frame time, per-ray work</h1>
+<p>Every structure is converted from one BVH per scene; path tracing at 1 sample per pixel with 5 diffuse bounces, frames rendered round-robin over the structures. Ratios are to the uncompressed BVH (52-byte inner nodes, 4-byte leaves) in the same run.</p>
+"#,
+    );
+    for (k, r) in results.iter().enumerate() {
+        s += &format!(
+            "<section class=\"scene\"><h2>{} ({} triangles)</h2>\n",
+            escape(&r.scene),
+            r.triangles
+        );
+        s += "<table>\n<tr><th>structure</th><th>storage MB</th><th>vs bvh</th><th>frame s</th><th>vs bvh</th><th>nodes/ray</th><th>plane tests/ray</th><th>triangle tests/ray</th><th>same image</th></tr>\n";
+        for row in &r.rows {
+            s += &format!(
+                "<tr><td>{}</td><td>{:.3}</td><td>{:.1}%</td><td>{:.4}</td><td>{:.1}%</td><td>{:.2}</td><td>{:.1}</td><td>{:.2}</td><td>{}</td></tr>\n",
+                row.structure.name(),
+                row.bytes as f64 / 1e6,
+                100.0 * row.storage_ratio,
+                row.frame_seconds,
+                100.0 * row.frame_ratio,
+                row.per_ray.nodes,
+                row.per_ray.planes,
+                row.per_ray.triangles,
+                if row.same_image { "yes" } else { "no" }
+            );
+        }
+        s += "</table>\n<div class=\"charts\">\n";
+        s += &chart(r, "storage", "MB", |row| {
+            (row.bytes as f64 / 1e6, row.storage_ratio)
+        });
+        s += &chart(r, "frame time", "s", |row| {
+            (row.frame_seconds, row.frame_ratio)
+        });
+        s += "</div>\n<div class=\"pictures\">\n";
+        if !r.pictures.frame.is_empty() {
+            s += &format!(
+                "<figure>{}<figcaption>the frame ({}×{}, 1 spp)</figcaption></figure>\n",
+                img(&r.pictures.frame, "rendered frame"),
+                r.width,
+                r.height
+            );
+        }
+        for h in &r.pictures.heatmaps {
+            s += &format!(
+                "<figure>{}<figcaption>{} per pixel, {}: mean {:.1}; scale 0 (dark) to {} (white)</figcaption></figure>\n",
+                img(&h.png, &format!("{} heat map, {}", h.measure.name(), h.structure.name())),
+                h.measure.name(),
+                h.structure.name(),
+                h.mean,
+                h.scale_top
+            );
+        }
+        s += "</div>\n";
+        if let Some(md) = markdown.get(k) {
+            s += &format!(
+                "<details><summary>Tables 1–3 as printed</summary><pre>{}</pre></details>\n",
+                escape(md)
+            );
+        }
+        s += "</section>\n";
+    }
+    s += "</body></html>\n";
+    s
+}
