@@ -7,13 +7,13 @@
 //!
 //! Plane distances are widened as [`super::interval`] says.
 
-use super::interval::{entry, exit, lower, nonempty, raise, split_children};
-use super::leaf::intersect_leaf;
+use super::interval::{entry, exit, lower, nonempty, pop_live, raise, split_children};
+use super::leaf::{enter_interval, intersect_leaf};
 use super::with_stack;
 use crate::accel::dst::node::DstNode;
 use crate::accel::dst::DualSplitTree;
-use crate::geometry::{BoxRay, Hit, Ray};
-use crate::stats::{Stats, Tally};
+use crate::geometry::{Hit, Ray};
+use crate::stats::Stats;
 
 #[inline]
 pub fn trace<S: Stats, const ANY: bool>(
@@ -33,16 +33,7 @@ fn trace_n<S: Stats, const ANY: bool, const N: usize>(
     if dst.is_empty() {
         return None;
     }
-    let br = BoxRay::new(ray);
-    let mut tally = Tally {
-        planes: 6,
-        ..Tally::default()
-    };
-    let (tn, tf) = br.interval(&dst.root_bounds.to_array(), ray.tmin, ray.tmax);
-    if tn > tf {
-        stats.add(tally);
-        return None;
-    }
+    let (br, mut tally, tn, tf) = enter_interval(ray, &dst.root_bounds.to_array(), stats)?;
     let words = &dst.words[..];
     let (o, inv, neg) = (br.org, br.inv, br.neg);
     let mut best: Option<Hit> = None;
@@ -50,7 +41,7 @@ fn trace_n<S: Stats, const ANY: bool, const N: usize>(
     let mut stack = [(0u32, 0f32, 0f32); N];
     let mut sp = 0;
     let (mut node, mut tmin, mut tmax) = (0usize, tn, tf);
-    'outer: loop {
+    loop {
         tally.nodes += 1;
         if S::LOGS {
             stats.visit(node as u32);
@@ -135,17 +126,9 @@ fn trace_n<S: Stats, const ANY: bool, const N: usize>(
                 break;
             }
         }
-        // Pop the next entry whose interval still starts before the closest hit.
-        loop {
-            if sp == 0 {
-                break 'outer;
-            }
-            sp -= 1;
-            let (n, t0, t1) = stack[sp];
-            if t0 <= best_t && t0 < f32::INFINITY {
-                (node, tmin, tmax) = (n as usize, t0, lower(t1, best_t));
-                continue 'outer;
-            }
+        match pop_live(&stack, &mut sp, best_t) {
+            Some(next) => (node, tmin, tmax) = next,
+            None => break,
         }
     }
     stats.add(tally);

@@ -82,3 +82,22 @@ pub fn split_children(
         hit_far.then(|| (far, raise(tmin, t_far_entry), tmax)),
     ]
 }
+
+/// Pops the next stack entry `(node, tmin, tmax)` whose interval still
+/// starts before the closest hit `best_t`, its `tmax` lowered to `best_t`;
+/// `None` when the stack runs out.
+#[inline(always)]
+pub fn pop_live(
+    stack: &[(u32, f32, f32)],
+    sp: &mut usize,
+    best_t: f32,
+) -> Option<(usize, f32, f32)> {
+    while *sp > 0 {
+        *sp -= 1;
+        let (n, t0, t1) = stack[*sp];
+        if t0 <= best_t && t0 < f32::INFINITY {
+            return Some((n as usize, t0, lower(t1, best_t)));
+        }
+    }
+    None
+}

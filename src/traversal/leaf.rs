@@ -77,6 +77,29 @@ pub fn enter<S: Stats>(ray: &Ray, root: &[f32; 6], stats: &mut S) -> Option<(Box
     Some((br, tally))
 }
 
+/// The root box test of the interval traversals (dual-split tree, BIH,
+/// H-tree): the ray's box constants, its tally and its interval `[tn, tf]`
+/// inside the scene box, or `None` when it misses (the tally then handed
+/// to `stats`).
+#[inline(always)]
+pub fn enter_interval<S: Stats>(
+    ray: &Ray,
+    root: &[f32; 6],
+    stats: &mut S,
+) -> Option<(BoxRay, Tally, f32, f32)> {
+    let br = BoxRay::new(ray);
+    let tally = Tally {
+        planes: 6,
+        ..Tally::default()
+    };
+    let (tn, tf) = br.interval(root, ray.tmin, ray.tmax);
+    if tn > tf {
+        stats.add(tally);
+        return None;
+    }
+    Some((br, tally, tn, tf))
+}
+
 /// Entry distances (`+inf` on a miss) of the sibling pair whose left node is
 /// `nodes[left]`.
 #[inline(always)]
