@@ -68,6 +68,10 @@ pub struct RenderArgs {
     /// (0 to the 99.5th percentile of the pixels' counts) beneath.
     #[arg(long, value_enum, value_delimiter = ',')]
     heatmap: Vec<Measure>,
+    /// The count drawn white in every heat map, instead of the 99.5th
+    /// percentile: one scale for maps of several structures.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    heatmap_top: Option<u32>,
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -216,7 +220,7 @@ fn run_in_pool(args: &RenderArgs) -> Result<()> {
     let mut heatmaps = Vec::new();
     for &m in &args.heatmap {
         let file = beside(&args.out, m.name());
-        let info = rendered.work.save(m, &file)?;
+        let info = rendered.work.save_scaled(m, &file, args.heatmap_top)?;
         heatmaps.push(Heatmap { info, file });
     }
 
@@ -288,7 +292,7 @@ fn print_report(r: &RenderReport) {
     println!("wrote      {}", r.image.display());
     for h in &r.heatmaps {
         println!(
-            "heat map   {} per pixel: mean {:.1}, largest {}; scale 0 (dark) to {} (white, the 99.5th percentile): {}",
+            "heat map   {} per pixel: mean {:.1}, largest {}; scale 0 (dark) to {} (white): {}",
             h.info.measure.name(),
             h.info.mean,
             h.info.max,
