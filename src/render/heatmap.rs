@@ -116,15 +116,8 @@ impl WorkImage {
     /// The heat map of [`Self::save_scaled`] as PNG bytes.
     pub fn png(&self, m: Measure, max: Option<u32>) -> (Vec<u8>, HeatmapInfo) {
         let values = self.values(m);
-        let mut sorted = values.clone();
-        sorted.sort_unstable();
-        let largest = sorted.last().copied().unwrap_or(0);
-        let top = max.unwrap_or_else(|| {
-            sorted
-                .get(sorted.len() * 995 / 1000)
-                .copied()
-                .unwrap_or(largest)
-        });
+        let largest = values.iter().copied().max().unwrap_or(0);
+        let top = max.unwrap_or_else(|| self.percentile_top(m));
         let mean = values.iter().map(|&v| v as f64).sum::<f64>() / values.len().max(1) as f64;
         let bar = (self.height / 16).max(8);
         let (w, h) = (self.width, self.height + 1 + bar);

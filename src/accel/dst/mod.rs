@@ -125,10 +125,6 @@ impl DualSplitTree {
         &self.index
     }
 
-    pub fn is_similar(&self) -> bool {
-        !self.rules.complete
-    }
-
     /// The rules it was converted under.
     pub fn rules(&self) -> Rules {
         self.rules
