@@ -104,6 +104,13 @@ fn hairball_agrees_with_oracle() {
 }
 
 #[test]
+fn paper_analogue_scenes_agree_with_oracle() {
+    for spec in ["atrium:6000", "forest:4000", "plant:4000"] {
+        check_scene(&Scene::builtin(spec).unwrap(), 100_000);
+    }
+}
+
+#[test]
 fn shared_meshes_agree_with_oracle() {
     for (name, rays) in [
         ("teapot.obj", 100_000),

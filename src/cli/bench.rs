@@ -27,7 +27,9 @@ pub enum BenchCommand {
 #[derive(Args, Debug)]
 pub struct DstArgs {
     /// Scenes, repeatable: built-in names or OBJ/PLY files [default: chess
-    /// and hairball; with --preset paper, chess:1M and hairball:1M].
+    /// and hairball; with --preset paper, the paper's analogues atrium
+    /// (Sponza), forest (vegetation), plant:12M (Powerplant), chess:1M and
+    /// hairball:1M].
     #[arg(long = "scene", short = 's')]
     scenes: Vec<String>,
     /// quick: 256×256, 2 frames; paper: 1024×1024, 32 frames (as the paper).
@@ -133,7 +135,9 @@ fn run_dst(a: DstArgs) -> Result<()> {
     let scenes = if a.scenes.is_empty() {
         match a.preset {
             dst::Preset::Quick => vec!["chess".to_owned(), "hairball".to_owned()],
-            dst::Preset::Paper => vec!["chess:1M".to_owned(), "hairball:1M".to_owned()],
+            dst::Preset::Paper => ["atrium", "forest", "plant:12M", "chess:1M", "hairball:1M"]
+                .map(str::to_owned)
+                .to_vec(),
         }
     } else {
         a.scenes.clone()

@@ -1,8 +1,11 @@
 //! Built-in procedural scenes: deterministic (fixed seeds) and scalable by an
 //! approximate triangle count, so tests and benchmarks need no download.
 
+mod atrium;
 mod chess;
+mod forest;
 mod hairball;
+mod plant;
 pub mod shapes;
 
 use super::Scene;
@@ -29,6 +32,24 @@ pub const BUILTIN: &[Builtin] = &[
         default_triangles: 100_000,
         about: "irregular: thin curved tubes tangled inside a sphere, like HAIRBALL",
         make: hairball::scene,
+    },
+    Builtin {
+        name: "atrium",
+        default_triangles: 260_000,
+        about: "architectural interior: a two-storey arcaded court with columns, arches and drapes, like Crytek Sponza",
+        make: atrium::scene,
+    },
+    Builtin {
+        name: "forest",
+        default_triangles: 1_000_000,
+        about: "vegetation: grass blades and leafy branching trees on rolling ground, irregular",
+        make: forest::scene,
+    },
+    Builtin {
+        name: "plant",
+        default_triangles: 1_000_000,
+        about: "industrial: a grid of works with stacks, tanks, pipes and trusses, like Powerplant (plant:12M)",
+        make: plant::scene,
     },
 ];
 

@@ -89,6 +89,47 @@ pub fn push_lathe(mesh: &mut Mesh, profile: &[(f32, f32)], segments: usize, at: 
     }
 }
 
+/// The number of triangles [`push_lathe`] makes of `profile` with
+/// `segments` around: a fan where one ring is a pole, a band of two per
+/// segment between full rings, nothing between two poles.
+pub fn lathe_triangles(profile: &[(f32, f32)], segments: usize) -> usize {
+    profile
+        .windows(2)
+        .map(|w| match (w[0].0 == 0.0, w[1].0 == 0.0) {
+            (true, true) => 0,
+            (true, false) | (false, true) => segments,
+            (false, false) => 2 * segments,
+        })
+        .sum()
+}
+
+/// The number of triangles [`push_tube`] makes of a path of `points` points
+/// with `sides` sides.
+pub fn tube_triangles(points: usize, sides: usize) -> usize {
+    2 * sides * points.saturating_sub(1)
+}
+
+/// Appends a grid surface of `rows` × `cols` quads (two triangles each),
+/// whose vertex `(i, j)` for `i` in `0..=rows`, `j` in `0..=cols` is
+/// `at(i, j)`.
+pub fn push_grid(mesh: &mut Mesh, rows: usize, cols: usize, at: impl Fn(usize, usize) -> Vec3) {
+    let base = mesh.positions.len() as u32;
+    for i in 0..=rows {
+        for j in 0..=cols {
+            mesh.positions.push(at(i, j));
+        }
+    }
+    let stride = cols as u32 + 1;
+    for i in 0..rows as u32 {
+        for j in 0..cols as u32 {
+            let a = base + i * stride + j;
+            let (b, c, d) = (a + 1, a + stride, a + stride + 1);
+            mesh.indices.push([a, b, d]);
+            mesh.indices.push([a, d, c]);
+        }
+    }
+}
+
 /// Appends an open tube of radius `radius` with `sides` sides along the
 /// polyline `path`, its rings oriented by parallel transport (no twist).
 pub fn push_tube(mesh: &mut Mesh, path: &[Vec3], radius: f32, sides: usize) {
@@ -139,6 +180,30 @@ mod tests {
             }
         }
         assert!(edges.values().all(|&c| c == 2));
+    }
+
+    #[test]
+    fn triangle_counts_match_what_is_built() {
+        let profile = resample(&[(0.0, 0.0), (1.0, 0.0), (0.5, 2.0), (0.0, 2.0)], 9);
+        for segments in [3, 8, 17] {
+            let mut m = Mesh::default();
+            push_lathe(&mut m, &profile, segments, Vec3::ZERO, 2.0);
+            assert_eq!(m.indices.len(), lathe_triangles(&profile, segments));
+            let open = [(0.5, 0.0), (0.5, 1.0), (0.3, 1.5)];
+            let mut m = Mesh::default();
+            push_lathe(&mut m, &open, segments, Vec3::ZERO, 1.0);
+            assert_eq!(m.indices.len(), lathe_triangles(&open, segments));
+        }
+        let path: Vec<Vec3> = (0..7)
+            .map(|i| Vec3::new(i as f32, (i * i) as f32, 0.0))
+            .collect();
+        let mut m = Mesh::default();
+        push_tube(&mut m, &path, 0.1, 5);
+        assert_eq!(m.indices.len(), tube_triangles(7, 5));
+        let mut m = Mesh::default();
+        push_grid(&mut m, 3, 4, |i, j| Vec3::new(j as f32, 0.0, i as f32));
+        assert_eq!(m.indices.len(), 24);
+        m.validate().unwrap();
     }
 
     #[test]
