@@ -9,8 +9,7 @@
 //! to let both use the host's vector units).
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use obvhs::bvh2::{node::Bvh2Node, Bvh2};
-use raytree::bvh::NodeKind;
+use raytree::bench::peers;
 use raytree::prelude::*;
 use raytree::render::rayset;
 use std::hint::black_box;
@@ -27,7 +26,7 @@ fn bench_build(c: &mut Criterion) {
         });
     }
     g.bench_function("obvhs ploc medium", |b| {
-        let tris = obvhs_triangles(&scene);
+        let tris = peers::obvhs::triangles(&scene);
         b.iter(|| {
             obvhs::bvh2::builder::build_bvh2_from_tris(
                 black_box(&tris),
@@ -39,61 +38,6 @@ fn bench_build(c: &mut Criterion) {
     g.finish();
 }
 
-fn obvhs_triangles(scene: &Scene) -> Vec<obvhs::triangle::Triangle> {
-    scene
-        .triangles
-        .iter()
-        .map(|t| obvhs::triangle::Triangle {
-            v0: t.a.into(),
-            v1: t.b.into(),
-            v2: t.c.into(),
-        })
-        .collect()
-}
-
-/// raytree's canonical tree as an obvhs `Bvh2`: the same nodes and leaves.
-fn obvhs_from(bvh: &Bvh) -> Bvh2 {
-    let mut nodes = vec![Bvh2Node::new(
-        obvhs::aabb::Aabb::new(bvh.bounds().min.into(), bvh.bounds().max.into()),
-        0,
-        0,
-    )];
-    let mut todo = vec![(0u32, 0usize)];
-    while let Some((id, at)) = todo.pop() {
-        let n = &bvh.nodes[id as usize];
-        match n.kind {
-            NodeKind::Leaf { first, count } => {
-                nodes[at].prim_count = count;
-                nodes[at].first_index = first;
-            }
-            NodeKind::Inner { left, right, .. } => {
-                let first = nodes.len();
-                nodes[at].first_index = first as u32;
-                for c in [left, right] {
-                    let b = bvh.nodes[c as usize].bounds;
-                    nodes.push(Bvh2Node::new(
-                        obvhs::aabb::Aabb::new(b.min.into(), b.max.into()),
-                        0,
-                        0,
-                    ));
-                }
-                todo.push((left, first));
-                todo.push((right, first + 1));
-            }
-        }
-    }
-    Bvh2 {
-        nodes,
-        primitive_indices: bvh.prims.clone(),
-        max_depth: bvh.stats.depth as usize + 1,
-        ..Default::default()
-    }
-}
-
-fn to_obvhs(r: &Ray) -> obvhs::ray::Ray {
-    obvhs::ray::Ray::new(r.origin().into(), r.direction().into(), r.tmin, r.tmax)
-}
-
 fn bench_trace(c: &mut Criterion) {
     for spec in ["chess", "hairball:1M"] {
         let scene = Scene::builtin(spec).unwrap();
@@ -102,9 +46,9 @@ fn bench_trace(c: &mut Criterion) {
         let eye = rayset::eye_rays(&scene, 256, 256, 1);
         let radius = 0.045 * scene.mesh.bounds().extent().length();
         let ao = rayset::ao_rays(&scene, &layout, &eye, 4, radius);
-        let same_tree = obvhs_from(&bvh);
+        let same_tree = peers::obvhs::bvh2_from(&bvh);
         let own_tree = obvhs::bvh2::builder::build_bvh2_from_tris(
-            &obvhs_triangles(&scene),
+            &peers::obvhs::triangles(&scene),
             obvhs::BvhBuildParams::medium_build(),
             &mut Duration::default(),
         );
@@ -133,7 +77,7 @@ fn bench_trace(c: &mut Criterion) {
                     rays.iter()
                         .filter(|r| {
                             let mut hit = obvhs::ray::RayHit::none();
-                            t.ray_traverse(to_obvhs(r), &mut hit, |ray, i| {
+                            t.ray_traverse(peers::obvhs::to_obvhs(r), &mut hit, |ray, i| {
                                 let p = t.primitive_indices[i];
                                 tris[p as usize]
                                     .intersect(r, r.tmin, ray.tmax)
@@ -164,7 +108,7 @@ fn bench_trace(c: &mut Criterion) {
                 b.iter(|| {
                     rays.iter()
                         .filter(|r| {
-                            !t.ray_traverse_miss(to_obvhs(r), |ray, i| {
+                            !t.ray_traverse_miss(peers::obvhs::to_obvhs(r), |ray, i| {
                                 let p = t.primitive_indices[i];
                                 tris[p as usize]
                                     .intersect(r, r.tmin, ray.tmax)

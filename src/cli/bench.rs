@@ -5,7 +5,7 @@ use clap::{Args, Subcommand};
 use raytree::accel::StructureKind;
 use raytree::bench::stackless::{self, Preset};
 use raytree::bench::svg::{stacked_bars, Bar};
-use raytree::bench::{dst, report};
+use raytree::bench::{dst, peers, report};
 use raytree::bvh::{BuildOptions, Builder};
 use raytree::error::Result;
 use raytree::prelude::Vec3;
@@ -22,6 +22,40 @@ pub enum BenchCommand {
     /// time and per-ray nodes, plane tests and triangle tests of every
     /// structure converted from one BVH, with node-type distributions.
     Dst(DstArgs),
+    /// raytree beside Embree 3 (feature `embree`) and obvhs (feature
+    /// `obvhs`) on the same primary, AO and path rays: Mrays/s and ratios
+    /// to raytree's BVH with STACK.
+    Peers(PeersArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct PeersArgs {
+    /// Scenes, repeatable: built-in names or OBJ/PLY files [default: chess
+    /// and hairball; with --preset paper, atrium, forest, plant:12M,
+    /// chess:1M and hairball:1M].
+    #[arg(long = "scene", short = 's')]
+    scenes: Vec<String>,
+    /// quick: 256×256 rays per set, 3 timed runs; paper: 1024×1024, 5 runs.
+    #[arg(long, value_enum, default_value_t = dst::Preset::Quick)]
+    preset: dst::Preset,
+    /// Image width in pixels (primary rays per row), overriding the preset's.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    width: Option<u32>,
+    /// Image height in pixels, overriding the preset's.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    height: Option<u32>,
+    /// Timed runs of each ray set by each contender (the median counts).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=100))]
+    repeats: Option<u32>,
+    /// Worker threads [default: all cores].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    threads: Option<u32>,
+    /// Also write the results as JSON to this file.
+    #[arg(long)]
+    json: Option<PathBuf>,
+    /// No progress bar.
+    #[arg(long, short = 'q')]
+    quiet: bool,
 }
 
 #[derive(Args, Debug)]
@@ -128,7 +162,61 @@ pub fn run(cmd: BenchCommand) -> Result<()> {
     match cmd {
         BenchCommand::Stackless(a) => run_stackless(a),
         BenchCommand::Dst(a) => run_dst(a),
+        BenchCommand::Peers(a) => run_peers(a),
     }
+}
+
+fn thread_pool(threads: Option<u32>) -> Result<rayon::ThreadPool> {
+    let threads = threads.map_or(rayon::current_num_threads(), |t| t as usize);
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| raytree::error::Error::Invalid(format!("cannot start {threads} threads: {e}")))
+}
+
+fn run_peers(a: PeersArgs) -> Result<()> {
+    let scenes = if a.scenes.is_empty() {
+        match a.preset {
+            dst::Preset::Quick => vec!["chess".to_owned(), "hairball".to_owned()],
+            dst::Preset::Paper => ["atrium", "forest", "plant:12M", "chess:1M", "hairball:1M"]
+                .map(str::to_owned)
+                .to_vec(),
+        }
+    } else {
+        a.scenes.clone()
+    };
+    let mut opts = match a.preset {
+        dst::Preset::Quick => peers::Options::quick(),
+        dst::Preset::Paper => peers::Options::paper(),
+    };
+    opts.width = a.width.map_or(opts.width, |v| v as usize);
+    opts.height = a.height.map_or(opts.height, |v| v as usize);
+    opts.repeats = a.repeats.map_or(opts.repeats, |v| v as usize);
+    let pool = thread_pool(a.threads)?;
+    let contenders = peers::available();
+    println!("contenders: {}", contenders.join(", "));
+    if !cfg!(feature = "embree") {
+        println!(
+            "(Embree is left out: build with --features embree, after apt install libembree-dev)"
+        );
+    }
+    let runs = scenes.len() * peers::WORKLOADS.len() * opts.repeats * contenders.len();
+    let bar = common::progress(runs as u64, "bench peers", a.quiet);
+    let mut results = Vec::new();
+    for spec in &scenes {
+        bar.set_message(format!("bench peers: {spec}"));
+        let scene = Scene::from_spec(spec)?;
+        let r = pool.install(|| peers::run_scene(&scene, &opts, &|| bar.inc(1)))?;
+        let md = peers::markdown(&r);
+        bar.suspend(|| println!("{md}"));
+        results.push(r);
+    }
+    bar.finish_and_clear();
+    println!("Mrays/s from the median of {} runs on all threads; (×) is the speed over raytree's BVH with STACK, same run. primary and path: closest hit; ao: any hit.", opts.repeats);
+    if let Some(p) = &a.json {
+        common::write_json(p, &results)?;
+    }
+    Ok(())
 }
 
 fn run_dst(a: DstArgs) -> Result<()> {

@@ -1,5 +1,6 @@
 //! Fixed ray sets for tests and benchmarks: the eye rays and AO rays the AO
-//! integrator would trace, generated with the same sampling.
+//! integrator would trace and the bounce rays of the path integrator,
+//! generated with the same sampling.
 
 use super::sampling::{cosine_hemisphere, eye_ray, facing_normal, offset_origin};
 use crate::accel::Accel;
@@ -46,6 +47,54 @@ pub fn ao_rays<A: Accel>(
                 0.0,
                 radius,
             ));
+        }
+    }
+    rays
+}
+
+/// The bounce rays of one path-traced frame of `w`×`h` pixels at 1 sample
+/// per pixel, up to `bounces` after each eye ray: the rays the path
+/// integrator traces after the eye rays, with its sampling, the hits found
+/// through `accel`.
+pub fn path_rays<A: Accel + Sync>(
+    scene: &Scene,
+    accel: &A,
+    w: usize,
+    h: usize,
+    bounces: u32,
+) -> Vec<Ray> {
+    use rayon::prelude::*;
+    let rows: Vec<Vec<Ray>> = (0..h)
+        .into_par_iter()
+        .map(|y| path_rays_of_row(scene, accel, y, w, h, bounces))
+        .collect();
+    rows.concat()
+}
+
+fn path_rays_of_row<A: Accel>(
+    scene: &Scene,
+    accel: &A,
+    y: usize,
+    w: usize,
+    h: usize,
+    bounces: u32,
+) -> Vec<Ray> {
+    let mut rays = Vec::new();
+    {
+        for x in 0..w {
+            let mut rng = Pcg32::new((y * w + x) as u64, 0);
+            let mut ray = eye_ray(scene, x, y, w, h, &mut rng);
+            for _ in 0..bounces {
+                let Some(hit) = accel.closest_hit(&ray, &mut NoStats) else {
+                    break;
+                };
+                let n = facing_normal(scene, &ray, &hit);
+                ray = Ray::infinite(
+                    offset_origin(ray.at(hit.t), n),
+                    cosine_hemisphere(n, &mut rng),
+                );
+                rays.push(ray);
+            }
         }
     }
     rays

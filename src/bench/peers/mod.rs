@@ -1,0 +1,304 @@
+//! raytree beside other ray tracers on the same rays: Embree 3 (cargo
+//! feature `embree`, over the system library) and the `obvhs` crate
+//! (feature `obvhs`, on by default). Three ray sets per scene, made once
+//! with raytree's BVH and traced by every contender:
+//!
+//! - primary: one jittered eye ray per pixel, closest hit (coherent);
+//! - ao: occlusion rays from each primary hit, any hit (incoherent, short);
+//! - path: the bounce rays of one path-traced frame (5 diffuse bounces, the
+//!   dual-split paper's workload), closest hit (incoherent, long).
+//!
+//! Every contender traces each set on all threads, the contenders taking
+//! turns, several times; the median time gives Mrays/s, reported beside the
+//! ratio to raytree's BVH with STACK. Each contender's answers are compared
+//! with raytree's ray by ray, so a fast wrong answer shows.
+
+#[cfg(feature = "embree")]
+pub mod embree;
+#[cfg(feature = "obvhs")]
+pub mod obvhs;
+
+use crate::accel::{Accel, BinaryBvh};
+use crate::bvh::{BuildOptions, Bvh};
+use crate::error::Result;
+use crate::geometry::Ray;
+use crate::render::rayset;
+use crate::scene::Scene;
+use crate::stats::NoStats;
+use rayon::prelude::*;
+use serde::Serialize;
+use std::time::Instant;
+
+/// A ray tracer measured beside raytree.
+pub trait Contender: Sync {
+    /// The closest hit's distance along `ray`, within `[tmin, tmax]`.
+    fn closest(&self, ray: &Ray) -> Option<f32>;
+    /// Whether anything is hit within `[tmin, tmax]`.
+    fn occluded(&self, ray: &Ray) -> bool;
+}
+
+impl<A: Accel + Sync> Contender for A {
+    fn closest(&self, ray: &Ray) -> Option<f32> {
+        self.closest_hit(ray, &mut NoStats).map(|h| h.t)
+    }
+    fn occluded(&self, ray: &Ray) -> bool {
+        self.any_hit(ray, &mut NoStats).is_some()
+    }
+}
+
+/// The contenders this build of raytree can run, by name.
+pub fn available() -> Vec<&'static str> {
+    let mut names = vec!["raytree bvh stack"];
+    if cfg!(feature = "obvhs") {
+        names.extend(["obvhs bvh2 same tree", "obvhs bvh2 ploc", "obvhs cwbvh"]);
+    }
+    if cfg!(feature = "embree") {
+        names.push("embree");
+    }
+    names
+}
+
+/// The three workloads.
+pub const WORKLOADS: [&str; 3] = ["primary", "ao", "path"];
+
+#[derive(Clone, Debug, Serialize)]
+pub struct Options {
+    /// raytree's BVH build (SAH, leaves of at most 8, as `bench dst`).
+    #[serde(skip)]
+    pub build: BuildOptions,
+    pub width: usize,
+    pub height: usize,
+    /// Occlusion rays per primary hit.
+    pub ao_per_hit: u32,
+    /// AO ray length as a fraction of the scene's diagonal.
+    pub ao_radius_fraction: f32,
+    pub bounces: u32,
+    /// Timed runs of each set by each contender; the median is reported.
+    pub repeats: usize,
+}
+
+impl Options {
+    pub fn quick() -> Self {
+        Options {
+            build: BuildOptions::sah().with_max_leaf_size(8),
+            width: 256,
+            height: 256,
+            ao_per_hit: 4,
+            ao_radius_fraction: 0.045,
+            bounces: 5,
+            repeats: 3,
+        }
+    }
+
+    pub fn paper() -> Self {
+        Options {
+            width: 1024,
+            height: 1024,
+            repeats: 5,
+            ..Options::quick()
+        }
+    }
+}
+
+/// The rays every contender traces.
+pub struct RaySets {
+    pub primary: Vec<Ray>,
+    pub ao: Vec<Ray>,
+    pub path: Vec<Ray>,
+}
+
+impl RaySets {
+    pub fn new(scene: &Scene, bvh: &BinaryBvh, o: &Options) -> Self {
+        let primary = rayset::eye_rays(scene, o.width, o.height, 1);
+        let radius = o.ao_radius_fraction * scene.mesh.bounds().extent().length();
+        let ao = rayset::ao_rays(scene, bvh, &primary, o.ao_per_hit, radius);
+        let path = rayset::path_rays(scene, bvh, o.width, o.height, o.bounces);
+        RaySets { primary, ao, path }
+    }
+
+    fn get(&self, workload: &str) -> &[Ray] {
+        match workload {
+            "primary" => &self.primary,
+            "ao" => &self.ao,
+            _ => &self.path,
+        }
+    }
+}
+
+/// One contender's figures on one workload.
+#[derive(Clone, Debug, Serialize)]
+pub struct Measure {
+    pub workload: String,
+    pub rays: usize,
+    /// Median seconds over the repeats.
+    pub seconds: f64,
+    pub mrays_per_s: f64,
+    /// raytree STACK's median time over this one's (above 1: faster).
+    pub speed_vs_stack: f64,
+    /// Rays answered as raytree's BVH answers them: the same hit or miss,
+    /// and for closest hits the same distance within a relative 1e-4.
+    pub agreeing: f64,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct Row {
+    pub contender: String,
+    /// Time to build its structure from the triangles (raytree: the SAH BVH
+    /// and its flat layout).
+    pub build_s: f64,
+    pub measures: Vec<Measure>,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct SceneResult {
+    pub scene: String,
+    pub triangles: usize,
+    pub threads: usize,
+    pub options: Options,
+    pub rows: Vec<Row>,
+}
+
+/// Answers of one contender to one set: distances (closest) or 0/1 (any).
+fn trace(c: &dyn Contender, rays: &[Ray], any: bool) -> Vec<f32> {
+    let mut out = vec![0.0f32; rays.len()];
+    out.par_chunks_mut(512)
+        .zip(rays.par_chunks(512))
+        .for_each(|(out, rays)| {
+            for (o, r) in out.iter_mut().zip(rays) {
+                *o = if any {
+                    c.occluded(r) as u8 as f32
+                } else {
+                    c.closest(r).unwrap_or(f32::INFINITY)
+                };
+            }
+        });
+    out
+}
+
+fn agree(a: f32, b: f32) -> bool {
+    a == b || (a - b).abs() <= 1e-4 * a.abs().max(b.abs())
+}
+
+/// Builds every available contender over `scene`, traces the three sets
+/// through each (on the current rayon pool) and reports.
+pub fn run_scene(scene: &Scene, o: &Options, tick: &(dyn Fn() + Sync)) -> Result<SceneResult> {
+    let start = Instant::now();
+    let bvh = Bvh::build(&scene.triangles, &o.build);
+    let layout = BinaryBvh::from_bvh(&bvh, scene.triangles.clone())?;
+    let raytree_build = start.elapsed().as_secs_f64();
+    let sets = RaySets::new(scene, &layout, o);
+
+    // Declared before the contenders that borrow them, so dropped after.
+    #[cfg(feature = "embree")]
+    let device = embree::Device::new();
+    #[cfg(feature = "embree")]
+    let built = embree::Built::new(&device, scene)?;
+    let mut contenders: Vec<(String, f64, Box<dyn Contender + '_>)> =
+        vec![("raytree bvh stack".into(), raytree_build, Box::new(layout))];
+    #[cfg(feature = "obvhs")]
+    contenders.extend(obvhs::contenders(scene, &bvh));
+    #[cfg(feature = "embree")]
+    {
+        let (peer, build_s) = built.commit();
+        contenders.push(("embree".into(), build_s, Box::new(peer)));
+    }
+
+    let mut rows: Vec<Row> = contenders
+        .iter()
+        .map(|(name, build_s, _)| Row {
+            contender: name.clone(),
+            build_s: *build_s,
+            measures: Vec::new(),
+        })
+        .collect();
+    for workload in WORKLOADS {
+        let rays = sets.get(workload);
+        let any = workload == "ao";
+        let reference = trace(contenders[0].2.as_ref(), rays, any);
+        let mut times = vec![Vec::with_capacity(o.repeats); contenders.len()];
+        let mut agreeing = vec![0.0; contenders.len()];
+        for rep in 0..o.repeats.max(1) {
+            for (i, (_, _, c)) in contenders.iter().enumerate() {
+                let t = Instant::now();
+                let answers = trace(c.as_ref(), rays, any);
+                times[i].push(t.elapsed().as_secs_f64());
+                if rep == 0 {
+                    let same = answers
+                        .iter()
+                        .zip(&reference)
+                        .filter(|(a, b)| agree(**a, **b))
+                        .count();
+                    agreeing[i] = same as f64 / rays.len().max(1) as f64;
+                }
+                tick();
+            }
+        }
+        let medians: Vec<f64> = times.iter_mut().map(|t| median(t)).collect();
+        for (i, row) in rows.iter_mut().enumerate() {
+            row.measures.push(Measure {
+                workload: workload.into(),
+                rays: rays.len(),
+                seconds: medians[i],
+                mrays_per_s: rays.len() as f64 / medians[i] / 1e6,
+                speed_vs_stack: medians[0] / medians[i],
+                agreeing: agreeing[i],
+            });
+        }
+    }
+    Ok(SceneResult {
+        scene: scene.name.clone(),
+        triangles: scene.triangles.len(),
+        threads: rayon::current_num_threads(),
+        options: o.clone(),
+        rows,
+    })
+}
+
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+/// The scene's table: Mrays/s per workload with the ratio to raytree STACK,
+/// and how many answers agree with raytree's.
+pub fn markdown(r: &SceneResult) -> String {
+    use std::fmt::Write;
+    let mut s = String::new();
+    let m = &r.rows[0].measures;
+    let _ = writeln!(
+        s,
+        "### {} ({} triangles, {} threads; {} primary, {} ao, {} path rays)\n",
+        r.scene, r.triangles, r.threads, m[0].rays, m[1].rays, m[2].rays
+    );
+    let _ = writeln!(
+        s,
+        "| contender | build s | primary Mrays/s | ao Mrays/s | path Mrays/s | agreeing with raytree |"
+    );
+    let _ = writeln!(s, "|---|---:|---:|---:|---:|---|");
+    for row in &r.rows {
+        let cells: Vec<String> = row
+            .measures
+            .iter()
+            .map(|m| format!("{:.2} ({:.2}×)", m.mrays_per_s, m.speed_vs_stack))
+            .collect();
+        let agreeing: Vec<String> = row
+            .measures
+            .iter()
+            .map(|m| format!("{:.3}%", 100.0 * m.agreeing))
+            .collect();
+        let _ = writeln!(
+            s,
+            "| {} | {:.2} | {} | {} |",
+            row.contender,
+            row.build_s,
+            cells.join(" | "),
+            agreeing.join(" / ")
+        );
+    }
+    s
+}
