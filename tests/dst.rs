@@ -242,3 +242,40 @@ fn nodes_decode_to_what_was_encoded_and_sizes_add_up() {
         }
     }
 }
+
+/// No identical conversion is smaller than the bound, and `dst` comes
+/// within a few percent of it (it picks configurations by SAH, not size).
+#[test]
+fn identical_trees_are_no_smaller_than_the_least_identical_storage() {
+    for spec in ["chess:4000", "hairball:4000", "forest:5000", "plant:5000"] {
+        let scene = Scene::builtin(spec).unwrap();
+        for builder in Builder::ALL {
+            for leaf in [1, 4, 8] {
+                let bvh = Bvh::build(
+                    &scene.triangles,
+                    &BuildOptions::new(builder).with_max_leaf_size(leaf),
+                );
+                let least = raytree::accel::dst::bound::least_identical_bytes(&bvh);
+                let dst = DualSplitTree::from_bvh(&bvh, scene.triangles.clone(), false).unwrap();
+                let bih = Bih::from_bvh(&bvh, scene.triangles.clone()).unwrap();
+                let what = format!("{spec} {} leaf {leaf}", builder.name());
+                assert_eq!(dst.stats.least_identical_bytes, least, "{what}");
+                assert!(
+                    dst.bytes() >= least,
+                    "{what}: dst {} < {least}",
+                    dst.bytes()
+                );
+                assert!(
+                    bih.bytes() >= least,
+                    "{what}: bih {} < {least}",
+                    bih.bytes()
+                );
+                assert!(
+                    (dst.bytes() as f64) < 1.1 * least as f64,
+                    "{what}: dst {} far above {least}",
+                    dst.bytes()
+                );
+            }
+        }
+    }
+}

@@ -54,6 +54,17 @@ impl Preset {
             Preset::Paper => 32,
         }
     }
+
+    /// The scenes measured when none are named: the small built-ins, or
+    /// the paper's analogues (Sponza, vegetation, Powerplant) with chess
+    /// and hairball at 1M triangles.
+    pub fn scenes(self) -> Vec<String> {
+        let names: &[&str] = match self {
+            Preset::Quick => &["chess", "hairball"],
+            Preset::Paper => &["atrium", "forest", "plant:12M", "chess:1M", "hairball:1M"],
+        };
+        names.iter().map(|s| s.to_string()).collect()
+    }
 }
 
 pub struct Options {

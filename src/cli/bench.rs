@@ -176,12 +176,7 @@ fn thread_pool(threads: Option<u32>) -> Result<rayon::ThreadPool> {
 
 fn run_peers(a: PeersArgs) -> Result<()> {
     let scenes = if a.scenes.is_empty() {
-        match a.preset {
-            dst::Preset::Quick => vec!["chess".to_owned(), "hairball".to_owned()],
-            dst::Preset::Paper => ["atrium", "forest", "plant:12M", "chess:1M", "hairball:1M"]
-                .map(str::to_owned)
-                .to_vec(),
-        }
+        a.preset.scenes()
     } else {
         a.scenes.clone()
     };
@@ -221,12 +216,7 @@ fn run_peers(a: PeersArgs) -> Result<()> {
 
 fn run_dst(a: DstArgs) -> Result<()> {
     let scenes = if a.scenes.is_empty() {
-        match a.preset {
-            dst::Preset::Quick => vec!["chess".to_owned(), "hairball".to_owned()],
-            dst::Preset::Paper => ["atrium", "forest", "plant:12M", "chess:1M", "hairball:1M"]
-                .map(str::to_owned)
-                .to_vec(),
-        }
+        a.preset.scenes()
     } else {
         a.scenes.clone()
     };
@@ -248,15 +238,7 @@ fn run_dst(a: DstArgs) -> Result<()> {
             a.accel.clone()
         },
     };
-    let threads = a
-        .threads
-        .map_or(rayon::current_num_threads(), |t| t as usize);
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .map_err(|e| {
-            raytree::error::Error::Invalid(format!("cannot start {threads} threads: {e}"))
-        })?;
+    let pool = thread_pool(a.threads)?;
     let frames = scenes.len() * opts.frames * opts.structures.len();
     let bar = common::progress(frames as u64, "bench dst", a.quiet);
     let mut results = Vec::new();

@@ -107,16 +107,17 @@ pub fn run(args: InfoArgs) -> Result<()> {
         .collect();
     if !dsts.is_empty() {
         println!();
-        println!("| two-plane tree (bih: clip nodes are 1-axis carving) | storage vs bvh | split | carve 1-axis | carve 2-axis | carving leaves | plain leaves | 0 / 1 / 2 / 3 carving levels | 1-axis : 2-axis |");
-        println!("|---|---:|---:|---:|---:|---:|---:|---|---|");
+        println!("| two-plane tree (bih: clip nodes are 1-axis carving) | storage vs bvh | least identical vs bvh | split | carve 1-axis | carve 2-axis | carving leaves | plain leaves | 0 / 1 / 2 / 3 carving levels | 1-axis : 2-axis |");
+        println!("|---|---:|---:|---:|---:|---:|---:|---:|---|---|");
         for (kind, d) in dsts {
             let levels = d.carving_levels;
             let all = levels.iter().sum::<usize>().max(1) as f64;
             let carves = (d.carve_single + d.carve_dual).max(1) as f64;
             println!(
-                "| {} | {} | {} | {} | {} | {} | {} | {:.0}% / {:.0}% / {:.0}% / {:.1}% | {:.0}% : {:.0}% |",
+                "| {} | {} | {} | {} | {} | {} | {} | {} | {:.0}% / {:.0}% / {:.0}% / {:.1}% | {:.0}% : {:.0}% |",
                 kind.name(),
                 vs_bvh(d.node_bytes + d.index_bytes),
+                vs_bvh(d.least_identical_bytes),
                 d.split_nodes,
                 d.carve_single,
                 d.carve_dual,

@@ -7,6 +7,7 @@
 //! - [`convert`]: the identical and similar conversions;
 //! - traversal: [`crate::traversal::dst`].
 
+pub mod bound;
 pub mod convert;
 pub mod node;
 pub mod plan;
@@ -41,6 +42,9 @@ pub struct DstStats {
     pub carving_levels: [usize; 4],
     pub node_bytes: usize,
     pub index_bytes: usize,
+    /// The least bytes of any identical conversion of the same BVH
+    /// ([`bound::least_identical_bytes`]).
+    pub least_identical_bytes: usize,
     pub conversion_seconds: f64,
 }
 
@@ -111,6 +115,7 @@ impl DualSplitTree {
         count(&tree, &mut t.stats, None);
         t.stats.node_bytes = t.words.len() * 4;
         t.stats.index_bytes = t.index.len() * 4;
+        t.stats.least_identical_bytes = bound::least_identical_bytes(bvh);
         t.stats.conversion_seconds = start.elapsed().as_secs_f64();
         Ok(t)
     }

@@ -74,47 +74,73 @@ fn hit_t(tris: &[Triangle], r: &Ray, prim: u32, tmax: f32) -> f32 {
         .map_or(f32::INFINITY, |h| h.0)
 }
 
-pub struct Bvh2Peer {
-    tree: Bvh2,
+/// The two obvhs trees, both traversed through the same two calls.
+pub trait Tree: Sync {
+    fn primitive_indices(&self) -> &[u32];
+    fn closest<F: FnMut(&obvhs::ray::Ray, usize) -> f32>(
+        &self,
+        ray: obvhs::ray::Ray,
+        hit: &mut RayHit,
+        f: F,
+    ) -> bool;
+    fn misses<F: FnMut(&obvhs::ray::Ray, usize) -> f32>(&self, ray: obvhs::ray::Ray, f: F) -> bool;
+}
+
+impl Tree for Bvh2 {
+    fn primitive_indices(&self) -> &[u32] {
+        &self.primitive_indices
+    }
+    fn closest<F: FnMut(&obvhs::ray::Ray, usize) -> f32>(
+        &self,
+        ray: obvhs::ray::Ray,
+        hit: &mut RayHit,
+        f: F,
+    ) -> bool {
+        self.ray_traverse(ray, hit, f)
+    }
+    fn misses<F: FnMut(&obvhs::ray::Ray, usize) -> f32>(&self, ray: obvhs::ray::Ray, f: F) -> bool {
+        self.ray_traverse_miss(ray, f)
+    }
+}
+
+impl Tree for CwBvh {
+    fn primitive_indices(&self) -> &[u32] {
+        &self.primitive_indices
+    }
+    fn closest<F: FnMut(&obvhs::ray::Ray, usize) -> f32>(
+        &self,
+        ray: obvhs::ray::Ray,
+        hit: &mut RayHit,
+        f: F,
+    ) -> bool {
+        self.ray_traverse(ray, hit, f)
+    }
+    fn misses<F: FnMut(&obvhs::ray::Ray, usize) -> f32>(&self, ray: obvhs::ray::Ray, f: F) -> bool {
+        self.ray_traverse_miss(ray, f)
+    }
+}
+
+/// An obvhs tree over raytree's triangles.
+pub struct Peer<T> {
+    tree: T,
     tris: Arc<[Triangle]>,
 }
 
-impl Contender for Bvh2Peer {
+impl<T: Tree> Contender for Peer<T> {
     fn closest(&self, r: &Ray) -> Option<f32> {
         let mut hit = RayHit::none();
-        let t = &self.tree;
-        t.ray_traverse(to_obvhs(r), &mut hit, |ray, i| {
-            hit_t(&self.tris, r, t.primitive_indices[i], ray.tmax)
-        })
-        .then_some(hit.t)
+        let ids = self.tree.primitive_indices();
+        self.tree
+            .closest(to_obvhs(r), &mut hit, |ray, i| {
+                hit_t(&self.tris, r, ids[i], ray.tmax)
+            })
+            .then_some(hit.t)
     }
     fn occluded(&self, r: &Ray) -> bool {
-        let t = &self.tree;
-        !t.ray_traverse_miss(to_obvhs(r), |ray, i| {
-            hit_t(&self.tris, r, t.primitive_indices[i], ray.tmax)
-        })
-    }
-}
-
-pub struct CwBvhPeer {
-    tree: CwBvh,
-    tris: Arc<[Triangle]>,
-}
-
-impl Contender for CwBvhPeer {
-    fn closest(&self, r: &Ray) -> Option<f32> {
-        let mut hit = RayHit::none();
-        let t = &self.tree;
-        t.ray_traverse(to_obvhs(r), &mut hit, |ray, i| {
-            hit_t(&self.tris, r, t.primitive_indices[i], ray.tmax)
-        })
-        .then_some(hit.t)
-    }
-    fn occluded(&self, r: &Ray) -> bool {
-        let t = &self.tree;
-        !t.ray_traverse_miss(to_obvhs(r), |ray, i| {
-            hit_t(&self.tris, r, t.primitive_indices[i], ray.tmax)
-        })
+        let ids = self.tree.primitive_indices();
+        !self
+            .tree
+            .misses(to_obvhs(r), |ray, i| hit_t(&self.tris, r, ids[i], ray.tmax))
     }
 }
 
@@ -129,7 +155,7 @@ pub fn contenders(scene: &Scene, bvh: &Bvh) -> Vec<(String, f64, Box<dyn Contend
     out.push((
         "obvhs bvh2 same tree".into(),
         t.elapsed().as_secs_f64(),
-        Box::new(Bvh2Peer {
+        Box::new(Peer {
             tree: same,
             tris: scene.triangles.clone(),
         }),
@@ -139,7 +165,7 @@ pub fn contenders(scene: &Scene, bvh: &Bvh) -> Vec<(String, f64, Box<dyn Contend
     out.push((
         "obvhs bvh2 ploc".into(),
         t.elapsed().as_secs_f64(),
-        Box::new(Bvh2Peer {
+        Box::new(Peer {
             tree: ploc,
             tris: scene.triangles.clone(),
         }),
@@ -149,7 +175,7 @@ pub fn contenders(scene: &Scene, bvh: &Bvh) -> Vec<(String, f64, Box<dyn Contend
     out.push((
         "obvhs cwbvh".into(),
         t.elapsed().as_secs_f64(),
-        Box::new(CwBvhPeer {
+        Box::new(Peer {
             tree: cw,
             tris: scene.triangles.clone(),
         }),

@@ -7,7 +7,7 @@
 //! them (45% of the triangles with the branches) and the grass blades (the
 //! rest after 2% of ground).
 
-use super::shapes::{push_grid, push_tube, tube_triangles};
+use super::shapes::{push_grid, push_tube, random_in_ball, tube_triangles};
 use crate::rng::Pcg32;
 use crate::scene::{Camera, Mesh, Scene};
 use glam::Vec3;
@@ -172,15 +172,6 @@ fn push_blade(mesh: &mut Mesh, rng: &mut Pcg32, root: Vec3) {
 
 /// A uniformly random unit vector.
 fn random_unit(rng: &mut Pcg32) -> Vec3 {
-    loop {
-        let v = Vec3::new(
-            rng.range(-1.0, 1.0),
-            rng.range(-1.0, 1.0),
-            rng.range(-1.0, 1.0),
-        );
-        let l = v.length_squared();
-        if l > 1e-4 && l <= 1.0 {
-            return v / l.sqrt();
-        }
-    }
+    let v = random_in_ball(rng);
+    v / v.length_squared().sqrt()
 }

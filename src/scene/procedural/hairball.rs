@@ -1,7 +1,7 @@
 //! A hairball: many thin curved tubes tangled inside a sphere, like the
 //! HAIRBALL scene: irregular, deep, full of overlapping boxes.
 
-use super::shapes::push_tube;
+use super::shapes::{push_tube, random_in_ball};
 use crate::rng::Pcg32;
 use crate::scene::{Camera, Mesh, Scene};
 use glam::Vec3;
@@ -19,28 +19,17 @@ pub fn scene(target_triangles: usize) -> Scene {
     // opaque at every size.
     let radius = 0.012 * (100_000.0 / target_triangles as f32).sqrt();
     let mut rng = Pcg32::new(SEED, 7);
-    let unit = |rng: &mut Pcg32| loop {
-        let v = Vec3::new(
-            rng.range(-1.0, 1.0),
-            rng.range(-1.0, 1.0),
-            rng.range(-1.0, 1.0),
-        );
-        let l = v.length_squared();
-        if l > 1e-4 && l <= 1.0 {
-            return v;
-        }
-    };
     let mut mesh = Mesh::default();
     let mut path = Vec::with_capacity(POINTS);
     for _ in 0..tubes {
         path.clear();
-        let mut p = unit(&mut rng) * 0.85;
-        let mut dir = unit(&mut rng).normalize();
+        let mut p = random_in_ball(&mut rng) * 0.85;
+        let mut dir = random_in_ball(&mut rng).normalize();
         let step = 0.035;
         for _ in 0..POINTS {
             path.push(p);
             // A wandering direction, steered back when it nears the shell.
-            dir = (dir + unit(&mut rng) * 0.35).normalize();
+            dir = (dir + random_in_ball(&mut rng) * 0.35).normalize();
             if p.length() > 0.9 {
                 dir = (dir - p.normalize() * 0.6).normalize();
             }

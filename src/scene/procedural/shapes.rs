@@ -1,7 +1,24 @@
 //! Mesh-building pieces shared by the procedural scenes.
 
+use crate::rng::Pcg32;
 use crate::scene::Mesh;
 use glam::Vec3;
+
+/// A uniformly random point of the unit ball, away from its centre (so it
+/// can be normalized).
+pub fn random_in_ball(rng: &mut Pcg32) -> Vec3 {
+    loop {
+        let v = Vec3::new(
+            rng.range(-1.0, 1.0),
+            rng.range(-1.0, 1.0),
+            rng.range(-1.0, 1.0),
+        );
+        let l = v.length_squared();
+        if l > 1e-4 && l <= 1.0 {
+            return v;
+        }
+    }
+}
 
 /// Appends an axis-aligned box (12 triangles, outward winding).
 pub fn push_box(mesh: &mut Mesh, lo: Vec3, hi: Vec3) {
