@@ -86,39 +86,34 @@ pub trait Tree: Sync {
     fn misses<F: FnMut(&obvhs::ray::Ray, usize) -> f32>(&self, ray: obvhs::ray::Ray, f: F) -> bool;
 }
 
-impl Tree for Bvh2 {
-    fn primitive_indices(&self) -> &[u32] {
-        &self.primitive_indices
-    }
-    fn closest<F: FnMut(&obvhs::ray::Ray, usize) -> f32>(
-        &self,
-        ray: obvhs::ray::Ray,
-        hit: &mut RayHit,
-        f: F,
-    ) -> bool {
-        self.ray_traverse(ray, hit, f)
-    }
-    fn misses<F: FnMut(&obvhs::ray::Ray, usize) -> f32>(&self, ray: obvhs::ray::Ray, f: F) -> bool {
-        self.ray_traverse_miss(ray, f)
-    }
+/// Both trees name the two calls alike; one body serves them.
+macro_rules! impl_tree {
+    ($t:ty) => {
+        impl Tree for $t {
+            fn primitive_indices(&self) -> &[u32] {
+                &self.primitive_indices
+            }
+            fn closest<F: FnMut(&obvhs::ray::Ray, usize) -> f32>(
+                &self,
+                ray: obvhs::ray::Ray,
+                hit: &mut RayHit,
+                f: F,
+            ) -> bool {
+                self.ray_traverse(ray, hit, f)
+            }
+            fn misses<F: FnMut(&obvhs::ray::Ray, usize) -> f32>(
+                &self,
+                ray: obvhs::ray::Ray,
+                f: F,
+            ) -> bool {
+                self.ray_traverse_miss(ray, f)
+            }
+        }
+    };
 }
 
-impl Tree for CwBvh {
-    fn primitive_indices(&self) -> &[u32] {
-        &self.primitive_indices
-    }
-    fn closest<F: FnMut(&obvhs::ray::Ray, usize) -> f32>(
-        &self,
-        ray: obvhs::ray::Ray,
-        hit: &mut RayHit,
-        f: F,
-    ) -> bool {
-        self.ray_traverse(ray, hit, f)
-    }
-    fn misses<F: FnMut(&obvhs::ray::Ray, usize) -> f32>(&self, ray: obvhs::ray::Ray, f: F) -> bool {
-        self.ray_traverse_miss(ray, f)
-    }
-}
+impl_tree!(Bvh2);
+impl_tree!(CwBvh);
 
 /// An obvhs tree over raytree's triangles.
 pub struct Peer<T> {
