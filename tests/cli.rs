@@ -418,13 +418,17 @@ fn bench_dst_reports_every_structure() {
     assert_eq!(lines.len(), 1 + 2 * 6);
     for l in &lines[1..] {
         let f: Vec<&str> = l.split(',').collect();
-        assert_eq!(f.len(), 19, "{l}");
-        for v in &f[3..18] {
+        assert_eq!(f.len(), 20, "{l}");
+        for v in &f[3..19] {
             assert!(v.parse::<f64>().unwrap().is_finite(), "{l}");
         }
     }
     let html = std::fs::read_to_string(rep.join("report.html")).unwrap();
     assert_eq!(html.matches("<section class=\"scene\">").count(), 2);
+    assert!(html.contains("<h2>All scenes</h2>"));
+    // Two scenes: the means over them, one line per structure.
+    assert!(out.contains("### Over 2 scenes"), "{out}");
+    assert!(out.contains("| dst-similar | "));
     assert_eq!(
         html.matches("<svg").count(),
         4,
@@ -475,12 +479,58 @@ fn bench_dst_reports_every_structure() {
         let bvh = &rows[0];
         for row in &rows[1..] {
             assert!(row["storage_ratio"].as_f64().unwrap() < 1.0);
+            assert!(
+                row["node_storage_ratio"].as_f64().unwrap()
+                    < row["storage_ratio"].as_f64().unwrap()
+            );
         }
+        // The Compact BVH's nodes: 32 bytes per BVH inner node against 52 + 4.
+        let inner = scene["bvh"]["inner_nodes"].as_f64().unwrap();
+        assert_eq!(
+            rows[5]["node_storage_ratio"].as_f64().unwrap(),
+            32.0 * inner / (52.0 * inner + 4.0 * (inner + 1.0))
+        );
         assert_eq!(rows[5]["per_ray"]["nodes"], bvh["per_ray"]["nodes"]);
         assert!(rows[1]["dst"]["split_nodes"].as_u64().unwrap() > 0);
         assert_eq!(rows[3]["dst"]["carve_dual"], 0);
         assert!(rows[4]["htree"]["bound_nodes"].as_u64().unwrap() > 0);
     }
+}
+
+#[test]
+fn bench_dst_without_the_bvh_shows_no_ratios() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = ok(&raytree(
+        &[
+            "bench",
+            "dst",
+            "-s",
+            "chess:2000",
+            "-a",
+            "dst,cbvh",
+            "--width",
+            "24",
+            "--height",
+            "16",
+            "--frames",
+            "1",
+            "-q",
+            "--json",
+            "d.json",
+        ],
+        dir.path(),
+    ));
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("d.json")).unwrap()).unwrap();
+    for row in json[0]["rows"].as_array().unwrap() {
+        for key in ["storage_ratio", "frame_ratio", "same_image"] {
+            assert!(row.get(key).is_none(), "{key} without a BVH to compare");
+        }
+        assert!(row["frame_seconds"].as_f64().unwrap() > 0.0);
+    }
+    let dst_line = out.lines().find(|l| l.starts_with("| dst |")).unwrap();
+    assert_eq!(dst_line.matches("| – ").count(), 7, "{dst_line}");
+    assert!(!out.contains("-100.0%") && !out.contains("### Over"));
 }
 
 #[test]

@@ -82,28 +82,40 @@ pub struct Row {
     pub bytes: usize,
     pub node_bytes: usize,
     pub index_bytes: usize,
-    /// `bytes` over the BVH's.
-    pub storage_ratio: f64,
     pub nodes: usize,
     pub conversion_seconds: f64,
     /// Mean frame time.
     pub frame_seconds: f64,
     pub fastest_frame_seconds: f64,
-    /// `frame_seconds` over the BVH's.
-    pub frame_ratio: f64,
     pub rays: u64,
     pub mrays_per_second: f64,
     pub per_ray: PerRay,
-    /// Per-ray work over the BVH's: nodes, plane tests, triangle tests.
-    pub nodes_ratio: f64,
-    pub planes_ratio: f64,
-    pub triangles_ratio: f64,
-    /// Whether the frame equals the BVH's bit for bit.
-    pub same_image: bool,
+    /// Ratios to the BVH's, when the BVH was among the structures measured.
+    #[serde(flatten)]
+    pub vs_bvh: Option<VsBvh>,
     /// Node kinds and carving levels (dual-split trees and the BIH).
     pub dst: Option<DstStats>,
     /// Node kinds (H-tree).
     pub htree: Option<HtreeStats>,
+}
+
+/// One structure against the uncompressed BVH of the same run.
+#[derive(Clone, Copy, Debug, Serialize, PartialEq)]
+pub struct VsBvh {
+    /// `bytes` (nodes and triangle index list) over the BVH's.
+    pub storage_ratio: f64,
+    /// `node_bytes` over the BVH's: the paper's Table 1 storage, which
+    /// counts nodes only (its 7.04 MB BVH of Crytek Sponza is 263,533 nodes
+    /// at 52 and 4 bytes, in MiB, without the index list).
+    pub node_storage_ratio: f64,
+    /// `frame_seconds` over the BVH's.
+    pub frame_ratio: f64,
+    /// Per-ray work over the BVH's: nodes, plane tests, triangle tests.
+    pub nodes_ratio: f64,
+    pub planes_ratio: f64,
+    pub triangles_ratio: f64,
+    /// Whether the first frame equals the BVH's bit for bit.
+    pub same_image: bool,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -202,19 +214,14 @@ pub fn run_scene(scene: &Scene, opts: &Options, tick: &dyn Fn()) -> Result<Scene
             bytes: info.bytes,
             node_bytes: info.node_bytes,
             index_bytes: info.index_bytes,
-            storage_ratio: 0.0,
             nodes: info.inner_nodes + info.leaves,
             conversion_seconds: info.conversion_seconds,
             frame_seconds: mean,
             fastest_frame_seconds: times[k].iter().copied().fold(f64::INFINITY, f64::min),
-            frame_ratio: 0.0,
             rays: r.counters.rays,
             mrays_per_second: r.counters.rays as f64 / mean.max(1e-12) / 1e6,
             per_ray: r.counters.per_ray(),
-            nodes_ratio: 0.0,
-            planes_ratio: 0.0,
-            triangles_ratio: 0.0,
-            same_image: false,
+            vs_bvh: None,
             dst: info.dst.clone(),
             htree: info.htree.clone(),
         });
@@ -225,15 +232,19 @@ pub fn run_scene(scene: &Scene, opts: &Options, tick: &dyn Fn()) -> Result<Scene
         .iter()
         .position(|&s| s == StructureKind::Bvh);
     if let Some(b) = base {
-        let (bytes, secs, per) = (rows[b].bytes, rows[b].frame_seconds, rows[b].per_ray);
+        let bvh = rows[b].clone();
         let image: &Image = &firsts[b].as_ref().expect("rendered").image;
+        let ratio = |x: f64, of: f64| x / of.max(1e-12);
         for (k, row) in rows.iter_mut().enumerate() {
-            row.storage_ratio = row.bytes as f64 / bytes.max(1) as f64;
-            row.frame_ratio = row.frame_seconds / secs.max(1e-12);
-            row.nodes_ratio = row.per_ray.nodes / per.nodes.max(1e-12);
-            row.planes_ratio = row.per_ray.planes / per.planes.max(1e-12);
-            row.triangles_ratio = row.per_ray.triangles / per.triangles.max(1e-12);
-            row.same_image = firsts[k].as_ref().expect("rendered").image == *image;
+            row.vs_bvh = Some(VsBvh {
+                storage_ratio: ratio(row.bytes as f64, bvh.bytes as f64),
+                node_storage_ratio: ratio(row.node_bytes as f64, bvh.node_bytes as f64),
+                frame_ratio: ratio(row.frame_seconds, bvh.frame_seconds),
+                nodes_ratio: ratio(row.per_ray.nodes, bvh.per_ray.nodes),
+                planes_ratio: ratio(row.per_ray.planes, bvh.per_ray.planes),
+                triangles_ratio: ratio(row.per_ray.triangles, bvh.per_ray.triangles),
+                same_image: firsts[k].as_ref().expect("rendered").image == *image,
+            });
         }
     }
     let mut pictures = Pictures {
@@ -281,6 +292,12 @@ pub fn run_scene(scene: &Scene, opts: &Options, tick: &dyn Fn()) -> Result<Scene
     })
 }
 
+/// What a ratio cell shows when the BVH was not measured.
+pub const NONE: &str = "–";
+
+/// Bytes in a MiB: the paper gives node storage in MiB.
+pub const MIB: f64 = (1u64 << 20) as f64;
+
 /// Table 1 of one scene, in Markdown.
 pub fn markdown(r: &SceneResult) -> String {
     let mut s = format!(
@@ -297,26 +314,31 @@ pub fn markdown(r: &SceneResult) -> String {
         r.frames,
         r.threads
     );
-    s += "| structure | storage MB | vs bvh | nodes | conversion s | frame s | vs bvh | Mrays/s | nodes/ray | vs bvh | plane tests/ray | vs bvh | triangle tests/ray | vs bvh | same image |\n";
-    s += "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|\n";
+    s += "| structure | storage MB | vs bvh | nodes MiB | vs bvh | nodes | conversion s | frame s | vs bvh | Mrays/s | nodes/ray | vs bvh | plane tests/ray | vs bvh | triangle tests/ray | vs bvh | same image |\n";
+    s += "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|\n";
     for row in &r.rows {
+        let v = row.vs_bvh;
+        let pct =
+            |f: fn(&VsBvh) -> f64| v.map_or(NONE.into(), |v| format!("{:.1}%", 100.0 * f(&v)));
         s += &format!(
-            "| {} | {:.3} | {:.1}% | {} | {:.3} | {:.4} | {:.1}% | {:.2} | {:.2} | {:.2}× | {:.1} | {:.1}% | {:.2} | {:+.1}% | {} |\n",
+            "| {} | {:.3} | {} | {:.3} | {} | {} | {:.3} | {:.4} | {} | {:.2} | {:.2} | {} | {:.1} | {} | {:.2} | {} | {} |\n",
             row.structure.name(),
             row.bytes as f64 / 1e6,
-            100.0 * row.storage_ratio,
+            pct(|v| v.storage_ratio),
+            row.node_bytes as f64 / MIB,
+            pct(|v| v.node_storage_ratio),
             row.nodes,
             row.conversion_seconds,
             row.frame_seconds,
-            100.0 * row.frame_ratio,
+            pct(|v| v.frame_ratio),
             row.mrays_per_second,
             row.per_ray.nodes,
-            row.nodes_ratio,
+            v.map_or(NONE.into(), |v| format!("{:.2}×", v.nodes_ratio)),
             row.per_ray.planes,
-            100.0 * row.planes_ratio,
+            pct(|v| v.planes_ratio),
             row.per_ray.triangles,
-            100.0 * (row.triangles_ratio - 1.0),
-            if row.same_image { "yes" } else { "no" }
+            v.map_or(NONE.into(), |v| format!("{:+.1}%", 100.0 * (v.triangles_ratio - 1.0))),
+            v.map_or(NONE, |v| if v.same_image { "yes" } else { "no" }),
         );
     }
     let two_plane: Vec<_> = r
@@ -344,6 +366,55 @@ pub fn markdown(r: &SceneResult) -> String {
         }
     }
     s
+}
+
+/// The means over several scenes of every structure's ratios to the BVH
+/// (arithmetic, as the paper averages), with their ranges, in Markdown;
+/// `None` unless two or more scenes measured the BVH.
+pub fn summary(results: &[SceneResult]) -> Option<String> {
+    let measured: Vec<&SceneResult> = results
+        .iter()
+        .filter(|r| r.rows.iter().any(|row| row.vs_bvh.is_some()))
+        .collect();
+    if measured.len() < 2 {
+        return None;
+    }
+    let mut s = format!(
+        "### Over {} scenes: mean (least–most) of the ratios to the BVH\n\n",
+        measured.len()
+    );
+    s += "| structure | storage | nodes only (paper's Table 1) | frame time | nodes/ray | plane tests/ray | triangle tests/ray |\n";
+    s += "|---|---|---|---|---|---|---|\n";
+    let kinds: Vec<StructureKind> = measured[0].rows.iter().map(|row| row.structure).collect();
+    for kind in kinds {
+        let of = |f: fn(&VsBvh) -> f64| -> Vec<f64> {
+            measured
+                .iter()
+                .filter_map(|r| r.rows.iter().find(|row| row.structure == kind))
+                .filter_map(|row| row.vs_bvh.as_ref().map(f))
+                .collect()
+        };
+        let cell = |xs: Vec<f64>, show: &dyn Fn(f64) -> String| {
+            let mean = xs.iter().sum::<f64>() / xs.len().max(1) as f64;
+            let lo = xs.iter().copied().fold(f64::INFINITY, f64::min);
+            let hi = xs.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            format!("{} ({}–{})", show(mean), show(lo), show(hi))
+        };
+        let pct = |x: f64| format!("{:.1}%", 100.0 * x);
+        let times = |x: f64| format!("{x:.2}×");
+        let delta = |x: f64| format!("{:+.1}%", 100.0 * (x - 1.0));
+        s += &format!(
+            "| {} | {} | {} | {} | {} | {} | {} |\n",
+            kind.name(),
+            cell(of(|v| v.storage_ratio), &pct),
+            cell(of(|v| v.node_storage_ratio), &pct),
+            cell(of(|v| v.frame_ratio), &times),
+            cell(of(|v| v.nodes_ratio), &times),
+            cell(of(|v| v.planes_ratio), &pct),
+            cell(of(|v| v.triangles_ratio), &delta),
+        );
+    }
+    Some(s)
 }
 
 /// One row of the node-type table: counts and shares as the paper's

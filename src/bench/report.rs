@@ -3,40 +3,44 @@
 //! and per-pixel heat maps like its Figure 1, images inlined as data URIs)
 //! and a CSV file with one row per scene and structure.
 
-use super::dst::SceneResult;
+use super::dst::{SceneResult, VsBvh, MIB, NONE};
 use super::svg::{stacked_bars, Bar};
 use base64::Engine;
 
 /// The CSV columns, in order.
-pub const CSV_HEADER: &str = "scene,triangles,structure,bytes,node_bytes,index_bytes,storage_ratio,nodes,conversion_seconds,frame_seconds,frame_ratio,mrays_per_second,nodes_per_ray,planes_per_ray,triangles_per_ray,nodes_ratio,planes_ratio,triangles_ratio,same_image";
+pub const CSV_HEADER: &str = "scene,triangles,structure,bytes,node_bytes,index_bytes,storage_ratio,node_storage_ratio,nodes,conversion_seconds,frame_seconds,frame_ratio,mrays_per_second,nodes_per_ray,planes_per_ray,triangles_per_ray,nodes_ratio,planes_ratio,triangles_ratio,same_image";
 
-/// One CSV row per scene and structure.
+/// One CSV row per scene and structure; the ratio cells are empty when the
+/// BVH was not measured.
 pub fn csv(results: &[SceneResult]) -> String {
     let mut s = String::from(CSV_HEADER);
     s.push('\n');
     for r in results {
         for row in &r.rows {
+            let v = row.vs_bvh;
+            let ratio = |f: fn(&VsBvh) -> f64| v.map_or(String::new(), |v| f(&v).to_string());
             s += &format!(
-                "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+                "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
                 csv_field(&r.scene),
                 r.triangles,
                 row.structure.name(),
                 row.bytes,
                 row.node_bytes,
                 row.index_bytes,
-                row.storage_ratio,
+                ratio(|v| v.storage_ratio),
+                ratio(|v| v.node_storage_ratio),
                 row.nodes,
                 row.conversion_seconds,
                 row.frame_seconds,
-                row.frame_ratio,
+                ratio(|v| v.frame_ratio),
                 row.mrays_per_second,
                 row.per_ray.nodes,
                 row.per_ray.planes,
                 row.per_ray.triangles,
-                row.nodes_ratio,
-                row.planes_ratio,
-                row.triangles_ratio,
-                row.same_image
+                ratio(|v| v.nodes_ratio),
+                ratio(|v| v.planes_ratio),
+                ratio(|v| v.triangles_ratio),
+                v.map_or(String::new(), |v| v.same_image.to_string())
             );
         }
     }
@@ -67,12 +71,14 @@ fn img(png: &[u8], alt: &str) -> String {
     )
 }
 
-/// A one-segment bar chart of `value` per structure of one scene.
+/// A bar chart per structure of one scene: `value` gives the bar's
+/// segments and its ratio to the BVH.
 fn chart(
     r: &SceneResult,
     title: &str,
+    segments: &[&str],
     unit: &str,
-    value: impl Fn(&super::dst::Row) -> (f64, f64),
+    value: impl Fn(&super::dst::Row) -> (Vec<f64>, Option<f64>),
 ) -> String {
     let bars: Vec<Bar> = r
         .rows
@@ -81,12 +87,12 @@ fn chart(
             let (v, ratio) = value(row);
             Bar {
                 label: row.structure.name().to_owned(),
-                segments: vec![v],
-                note: format!("{:.1}% of bvh", 100.0 * ratio),
+                segments: v,
+                note: ratio.map_or(String::new(), |x| format!("{:.1}% of bvh", 100.0 * x)),
             }
         })
         .collect();
-    stacked_bars(&format!("{}: {title}", r.scene), &[title], unit, &bars)
+    stacked_bars(&format!("{}: {title}", r.scene), segments, unit, &bars)
 }
 
 /// The HTML report; `markdown` holds each scene's table as the command
@@ -105,36 +111,56 @@ figcaption { font-size: 13px; }
 img { image-rendering: pixelated; max-width: 512px; }
 </style></head><body>
 <h1>Dual-split trees and their baselines: storage, frame time, per-ray work</h1>
-<p>Every structure is converted from one BVH per scene; path tracing at 1 sample per pixel with 5 diffuse bounces, frames rendered round-robin over the structures. Ratios are to the uncompressed BVH (52-byte inner nodes, 4-byte leaves) in the same run.</p>
+<p>Every structure is converted from one BVH per scene; path tracing at 1 sample per pixel with 5 diffuse bounces, frames rendered round-robin over the structures. Ratios are to the uncompressed BVH (52-byte inner nodes, 4-byte leaves) in the same run. Storage counts the nodes and the triangle index list; <em>nodes</em> counts the nodes alone, in MiB, as the paper's Table 1 does.</p>
 "#,
     );
+    if let Some(md) = super::dst::summary(results) {
+        s += &format!(
+            "<section><h2>All scenes</h2><pre>{}</pre></section>\n",
+            escape(&md)
+        );
+    }
     for (k, r) in results.iter().enumerate() {
         s += &format!(
             "<section class=\"scene\"><h2>{} ({} triangles)</h2>\n",
             escape(&r.scene),
             r.triangles
         );
-        s += "<table>\n<tr><th>structure</th><th>storage MB</th><th>vs bvh</th><th>frame s</th><th>vs bvh</th><th>nodes/ray</th><th>plane tests/ray</th><th>triangle tests/ray</th><th>same image</th></tr>\n";
+        s += "<table>\n<tr><th>structure</th><th>storage MB</th><th>vs bvh</th><th>nodes MiB</th><th>vs bvh</th><th>frame s</th><th>vs bvh</th><th>nodes/ray</th><th>plane tests/ray</th><th>triangle tests/ray</th><th>same image</th></tr>\n";
         for row in &r.rows {
+            let v = row.vs_bvh;
+            let pct =
+                |f: fn(&VsBvh) -> f64| v.map_or(NONE.into(), |v| format!("{:.1}%", 100.0 * f(&v)));
             s += &format!(
-                "<tr><td>{}</td><td>{:.3}</td><td>{:.1}%</td><td>{:.4}</td><td>{:.1}%</td><td>{:.2}</td><td>{:.1}</td><td>{:.2}</td><td>{}</td></tr>\n",
+                "<tr><td>{}</td><td>{:.3}</td><td>{}</td><td>{:.3}</td><td>{}</td><td>{:.4}</td><td>{}</td><td>{:.2}</td><td>{:.1}</td><td>{:.2}</td><td>{}</td></tr>\n",
                 row.structure.name(),
                 row.bytes as f64 / 1e6,
-                100.0 * row.storage_ratio,
+                pct(|v| v.storage_ratio),
+                row.node_bytes as f64 / MIB,
+                pct(|v| v.node_storage_ratio),
                 row.frame_seconds,
-                100.0 * row.frame_ratio,
+                pct(|v| v.frame_ratio),
                 row.per_ray.nodes,
                 row.per_ray.planes,
                 row.per_ray.triangles,
-                if row.same_image { "yes" } else { "no" }
+                v.map_or(NONE, |v| if v.same_image { "yes" } else { "no" })
             );
         }
         s += "</table>\n<div class=\"charts\">\n";
-        s += &chart(r, "storage", "MB", |row| {
-            (row.bytes as f64 / 1e6, row.storage_ratio)
-        });
-        s += &chart(r, "frame time", "s", |row| {
-            (row.frame_seconds, row.frame_ratio)
+        s += &chart(
+            r,
+            "storage",
+            &["nodes", "triangle index list"],
+            "MB",
+            |row| {
+                (
+                    vec![row.node_bytes as f64 / 1e6, row.index_bytes as f64 / 1e6],
+                    row.vs_bvh.map(|v| v.storage_ratio),
+                )
+            },
+        );
+        s += &chart(r, "frame time", &["frame time"], "s", |row| {
+            (vec![row.frame_seconds], row.vs_bvh.map(|v| v.frame_ratio))
         });
         s += "</div>\n<div class=\"pictures\">\n";
         if !r.pictures.frame.is_empty() {

@@ -257,7 +257,10 @@ fn run_dst(a: DstArgs) -> Result<()> {
         results.push(r);
     }
     bar.finish_and_clear();
-    println!("vs bvh: storage, mean frame time and per-ray work over the uncompressed BVH's (52-byte inner nodes, 4-byte leaves), same run; plane tests count 6 per box and 2 per two-plane node.");
+    if let Some(md) = dst::summary(&results) {
+        println!("{md}");
+    }
+    println!("vs bvh: storage (nodes and triangle index list), node storage alone (in MiB, as the paper's Table 1 counts it), mean frame time and per-ray work over the uncompressed BVH's (52-byte inner nodes, 4-byte leaves), same run; plane tests count 6 per box and 2 per two-plane node; {} where the BVH was not measured.", dst::NONE);
     if let Some(p) = &a.json {
         common::write_json(p, &results)?;
     }
