@@ -295,6 +295,16 @@ pub fn run_scene(scene: &Scene, opts: &Options, tick: &dyn Fn()) -> Result<Scene
 /// What a ratio cell shows when the BVH was not measured.
 pub const NONE: &str = "–";
 
+/// A ratio cell: `f` of the comparison in percent, or [`NONE`].
+pub fn percent_cell(v: Option<VsBvh>, f: fn(&VsBvh) -> f64) -> String {
+    v.map_or(NONE.into(), |v| format!("{:.1}%", 100.0 * f(&v)))
+}
+
+/// Whether the image is the BVH's: `yes`, `no`, or [`NONE`].
+pub fn same_image_cell(v: Option<VsBvh>) -> &'static str {
+    v.map_or(NONE, |v| if v.same_image { "yes" } else { "no" })
+}
+
 /// Bytes in a MiB: the paper gives node storage in MiB.
 pub const MIB: f64 = (1u64 << 20) as f64;
 
@@ -318,8 +328,7 @@ pub fn markdown(r: &SceneResult) -> String {
     s += "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|\n";
     for row in &r.rows {
         let v = row.vs_bvh;
-        let pct =
-            |f: fn(&VsBvh) -> f64| v.map_or(NONE.into(), |v| format!("{:.1}%", 100.0 * f(&v)));
+        let pct = |f: fn(&VsBvh) -> f64| percent_cell(v, f);
         s += &format!(
             "| {} | {:.3} | {} | {:.3} | {} | {} | {:.3} | {:.4} | {} | {:.2} | {:.2} | {} | {:.1} | {} | {:.2} | {} | {} |\n",
             row.structure.name(),
@@ -338,7 +347,7 @@ pub fn markdown(r: &SceneResult) -> String {
             pct(|v| v.planes_ratio),
             row.per_ray.triangles,
             v.map_or(NONE.into(), |v| format!("{:+.1}%", 100.0 * (v.triangles_ratio - 1.0))),
-            v.map_or(NONE, |v| if v.same_image { "yes" } else { "no" }),
+            same_image_cell(v),
         );
     }
     let two_plane: Vec<_> = r

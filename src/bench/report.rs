@@ -3,7 +3,7 @@
 //! and per-pixel heat maps like its Figure 1, images inlined as data URIs)
 //! and a CSV file with one row per scene and structure.
 
-use super::dst::{SceneResult, VsBvh, MIB, NONE};
+use super::dst::{percent_cell, same_image_cell, SceneResult, VsBvh, MIB};
 use super::svg::{stacked_bars, Bar};
 use base64::Engine;
 
@@ -129,8 +129,7 @@ img { image-rendering: pixelated; max-width: 512px; }
         s += "<table>\n<tr><th>structure</th><th>storage MB</th><th>vs bvh</th><th>nodes MiB</th><th>vs bvh</th><th>frame s</th><th>vs bvh</th><th>nodes/ray</th><th>plane tests/ray</th><th>triangle tests/ray</th><th>same image</th></tr>\n";
         for row in &r.rows {
             let v = row.vs_bvh;
-            let pct =
-                |f: fn(&VsBvh) -> f64| v.map_or(NONE.into(), |v| format!("{:.1}%", 100.0 * f(&v)));
+            let pct = |f: fn(&VsBvh) -> f64| percent_cell(v, f);
             s += &format!(
                 "<tr><td>{}</td><td>{:.3}</td><td>{}</td><td>{:.3}</td><td>{}</td><td>{:.4}</td><td>{}</td><td>{:.2}</td><td>{:.1}</td><td>{:.2}</td><td>{}</td></tr>\n",
                 row.structure.name(),
@@ -143,7 +142,7 @@ img { image-rendering: pixelated; max-width: 512px; }
                 row.per_ray.nodes,
                 row.per_ray.planes,
                 row.per_ray.triangles,
-                v.map_or(NONE, |v| if v.same_image { "yes" } else { "no" })
+                same_image_cell(v)
             );
         }
         s += "</table>\n<div class=\"charts\">\n";
