@@ -452,3 +452,66 @@ pub fn dst_row(kind: StructureKind, d: &DstStats) -> String {
         pct(levels[3], children),
     )
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(structure: StructureKind, vs: Option<f64>) -> Row {
+        Row {
+            structure,
+            bytes: 0,
+            node_bytes: 0,
+            index_bytes: 0,
+            nodes: 0,
+            conversion_seconds: 0.0,
+            frame_seconds: 1.0,
+            fastest_frame_seconds: 1.0,
+            rays: 0,
+            mrays_per_second: 0.0,
+            per_ray: PerRay::default(),
+            vs_bvh: vs.map(|x| VsBvh {
+                storage_ratio: x,
+                node_storage_ratio: x / 2.0,
+                frame_ratio: 2.0 * x,
+                nodes_ratio: 1.0,
+                planes_ratio: 1.0,
+                triangles_ratio: x,
+                same_image: true,
+            }),
+            dst: None,
+            htree: None,
+        }
+    }
+
+    fn scene(dst: Option<f64>) -> SceneResult {
+        SceneResult {
+            scene: "s".into(),
+            triangles: 0,
+            bvh: BuildStats::default(),
+            width: 1,
+            height: 1,
+            frames: 1,
+            threads: 1,
+            path: PathSettings::default(),
+            rows: vec![
+                row(StructureKind::Bvh, dst.map(|_| 1.0)),
+                row(StructureKind::Dst, dst),
+            ],
+            pictures: Pictures::default(),
+        }
+    }
+
+    #[test]
+    fn summary_gives_the_mean_and_range_of_each_ratio() {
+        let md = summary(&[scene(Some(0.5)), scene(Some(0.7)), scene(None)]).unwrap();
+        assert!(md.starts_with("### Over 2 scenes"), "{md}");
+        let dst = md.lines().find(|l| l.starts_with("| dst |")).unwrap();
+        assert_eq!(
+            dst,
+            "| dst | 60.0% (50.0%–70.0%) | 30.0% (25.0%–35.0%) | 1.20× (1.00×–1.40×) | 1.00× (1.00×–1.00×) | 100.0% (100.0%–100.0%) | -40.0% (-50.0%–-30.0%) |"
+        );
+        // One scene with the BVH measured is not a summary.
+        assert_eq!(summary(&[scene(Some(0.5)), scene(None)]), None);
+    }
+}
