@@ -68,6 +68,10 @@ impl AddAssign for Counters {
     }
 }
 
+/// Bytes in a MiB, the unit of storage figures (the dual-split paper's
+/// Table 1 gives its storage in MiB).
+pub const MIB: f64 = (1u64 << 20) as f64;
+
 /// Per-ray averages.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
 pub struct PerRay {

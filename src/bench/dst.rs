@@ -17,7 +17,7 @@ use crate::error::Result;
 use crate::render::heatmap::Measure;
 use crate::render::{render, Image, Integrator, PathSettings, Rendered};
 use crate::scene::Scene;
-use crate::stats::PerRay;
+use crate::stats::{PerRay, MIB};
 use serde::Serialize;
 
 /// The structures of Table 1, in the paper's order.
@@ -232,17 +232,19 @@ pub fn run_scene(scene: &Scene, opts: &Options, tick: &dyn Fn()) -> Result<Scene
         .iter()
         .position(|&s| s == StructureKind::Bvh);
     if let Some(b) = base {
-        let bvh = rows[b].clone();
+        let bvh = &rows[b];
+        let (bytes, node_bytes, secs, per) =
+            (bvh.bytes, bvh.node_bytes, bvh.frame_seconds, bvh.per_ray);
         let image: &Image = &firsts[b].as_ref().expect("rendered").image;
         let ratio = |x: f64, of: f64| x / of.max(1e-12);
         for (k, row) in rows.iter_mut().enumerate() {
             row.vs_bvh = Some(VsBvh {
-                storage_ratio: ratio(row.bytes as f64, bvh.bytes as f64),
-                node_storage_ratio: ratio(row.node_bytes as f64, bvh.node_bytes as f64),
-                frame_ratio: ratio(row.frame_seconds, bvh.frame_seconds),
-                nodes_ratio: ratio(row.per_ray.nodes, bvh.per_ray.nodes),
-                planes_ratio: ratio(row.per_ray.planes, bvh.per_ray.planes),
-                triangles_ratio: ratio(row.per_ray.triangles, bvh.per_ray.triangles),
+                storage_ratio: ratio(row.bytes as f64, bytes as f64),
+                node_storage_ratio: ratio(row.node_bytes as f64, node_bytes as f64),
+                frame_ratio: ratio(row.frame_seconds, secs),
+                nodes_ratio: ratio(row.per_ray.nodes, per.nodes),
+                planes_ratio: ratio(row.per_ray.planes, per.planes),
+                triangles_ratio: ratio(row.per_ray.triangles, per.triangles),
                 same_image: firsts[k].as_ref().expect("rendered").image == *image,
             });
         }
@@ -304,9 +306,6 @@ pub fn percent_cell(v: Option<VsBvh>, f: fn(&VsBvh) -> f64) -> String {
 pub fn same_image_cell(v: Option<VsBvh>) -> &'static str {
     v.map_or(NONE, |v| if v.same_image { "yes" } else { "no" })
 }
-
-/// Bytes in a MiB: the paper gives node storage in MiB.
-pub const MIB: f64 = (1u64 << 20) as f64;
 
 /// Table 1 of one scene, in Markdown.
 pub fn markdown(r: &SceneResult) -> String {

@@ -3,8 +3,9 @@
 //! and per-pixel heat maps like its Figure 1, images inlined as data URIs)
 //! and a CSV file with one row per scene and structure.
 
-use super::dst::{percent_cell, same_image_cell, SceneResult, VsBvh, MIB};
+use super::dst::{percent_cell, same_image_cell, SceneResult, VsBvh};
 use super::svg::{stacked_bars, Bar};
+use crate::stats::MIB;
 use base64::Engine;
 
 /// The CSV columns, in order.

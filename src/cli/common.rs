@@ -178,5 +178,5 @@ pub fn write_json(path: &Path, value: &impl Serialize) -> Result<()> {
 }
 
 pub fn mib(bytes: usize) -> String {
-    format!("{:.2} MiB", bytes as f64 / (1024.0 * 1024.0))
+    format!("{:.2} MiB", bytes as f64 / raytree::stats::MIB)
 }

@@ -91,7 +91,7 @@ pub fn run(args: InfoArgs) -> Result<()> {
             "| {} | {} | {:.3} | {} | {} | {} | {} | {} | {} | {:.4} |",
             s.structure.name(),
             s.bytes,
-            s.bytes as f64 / 1048576.0,
+            s.bytes as f64 / raytree::stats::MIB,
             vs_bvh(s.bytes),
             s.node_bytes,
             vs_bvh_nodes(s.node_bytes),
