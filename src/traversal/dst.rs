@@ -5,9 +5,9 @@
 //! are culled against the closest hit. Because regions may overlap, the
 //! traversal runs until the stack is empty.
 //!
-//! Plane distances are widened as [`super::interval`] says.
+//! Plane distances are widened by the ray's slack ([`super::interval::PlaneRay`]).
 
-use super::interval::{entry, exit, lower, nonempty, pop_live, raise, split_children};
+use super::interval::{lower, nonempty, pop_live, raise, split_children, PlaneRay};
 use super::leaf::{enter_interval, intersect_leaf};
 use super::with_stack;
 use crate::accel::dst::node::DstNode;
@@ -35,7 +35,7 @@ fn trace_n<S: Stats, const ANY: bool, const N: usize>(
     }
     let (br, mut tally, tn, tf) = enter_interval(ray, &dst.root_bounds.to_array(), stats)?;
     let words = &dst.words[..];
-    let (o, inv, neg) = (br.org, br.inv, br.neg);
+    let r = PlaneRay::new(&br, &dst.root_bounds);
     let mut best: Option<Hit> = None;
     let mut best_t = ray.tmax;
     let mut stack = [(0u32, 0f32, 0f32); N];
@@ -57,7 +57,7 @@ fn trace_n<S: Stats, const ANY: bool, const N: usize>(
                 let a = axis as usize & 3;
                 let first = node + offset as usize;
                 let second = first + first_words as usize;
-                match split_children(first, second, planes, o[a], inv[a], neg[a], tmin, tmax) {
+                match split_children(&r, a, planes, first, second, tmin, tmax) {
                     [Some(near), Some(far)] => {
                         stack[sp] = (far.0 as u32, far.1, far.2);
                         sp += 1;
@@ -79,11 +79,13 @@ fn trace_n<S: Stats, const ANY: bool, const N: usize>(
             } => {
                 tally.planes += 2;
                 let a = axis as usize & 3;
-                let t_lo = (planes[0] - o[a]) * inv[a];
-                let t_hi = (planes[1] - o[a]) * inv[a];
-                let (t_in, t_out) = if neg[a] { (t_hi, t_lo) } else { (t_lo, t_hi) };
-                tmin = raise(tmin, entry(t_in));
-                tmax = lower(tmax, exit(t_out));
+                let [p_in, p_out] = if r.neg[a] {
+                    [planes[1], planes[0]]
+                } else {
+                    planes
+                };
+                tmin = raise(tmin, r.entry(a, p_in));
+                tmax = lower(tmax, r.exit(a, p_out));
                 nonempty(tmin, tmax).then_some((leaf, offset))
             }
             DstNode::CarveDual {
@@ -96,13 +98,12 @@ fn trace_n<S: Stats, const ANY: bool, const N: usize>(
                 tally.planes += 2;
                 for k in 0..2 {
                     let a = axes[k] as usize & 3;
-                    let t = (planes[k] - o[a]) * inv[a];
                     // A minimum plane is entered going +axis, a maximum
                     // plane left; a negative direction swaps the two.
-                    if max_side[k] != neg[a] {
-                        tmax = lower(tmax, exit(t));
+                    if max_side[k] != r.neg[a] {
+                        tmax = lower(tmax, r.exit(a, planes[k]));
                     } else {
-                        tmin = raise(tmin, entry(t));
+                        tmin = raise(tmin, r.entry(a, planes[k]));
                     }
                 }
                 nonempty(tmin, tmax).then_some((leaf, offset))

@@ -7,7 +7,7 @@
 //! the interval is already clipped to. Popped entries are culled against
 //! the closest hit; the traversal runs until the stack is empty.
 
-use super::interval::{entry, exit, lower, nonempty, pop_live, raise, split_children};
+use super::interval::{lower, nonempty, pop_live, raise, split_children, PlaneRay};
 use super::leaf::{enter_interval, intersect_leaf};
 use super::with_stack;
 use crate::accel::htree::node::{LEAF_MASK, OFFSET_BITS, OFFSET_MASK};
@@ -31,7 +31,7 @@ fn trace_n<S: Stats, const ANY: bool, const N: usize>(
     }
     let (br, mut tally, tn, tf) = enter_interval(ray, &h.root_bounds.to_array(), stats)?;
     let words = &h.words[..];
-    let (o, inv, neg) = (br.org, br.inv, br.neg);
+    let r = PlaneRay::new(&br, &h.root_bounds);
     let mut best: Option<Hit> = None;
     let mut best_t = ray.tmax;
     let mut stack = [(0u32, 0f32, 0f32); N];
@@ -52,7 +52,7 @@ fn trace_n<S: Stats, const ANY: bool, const N: usize>(
                     f32::from_bits(words[node + 2]),
                 ];
                 let (first, second) = (node + 3, node + (w & OFFSET_MASK) as usize);
-                match split_children(first, second, planes, o[a], inv[a], neg[a], tmin, tmax) {
+                match split_children(&r, a, planes, first, second, tmin, tmax) {
                     [Some(near), Some(far)] => {
                         stack[sp] = (far.0 as u32, far.1, far.2);
                         sp += 1;
@@ -74,14 +74,14 @@ fn trace_n<S: Stats, const ANY: bool, const N: usize>(
                     let k = mask.trailing_zeros() as usize;
                     mask &= mask - 1;
                     let a = k % 3;
-                    let t = (f32::from_bits(words[at]) - o[a]) * inv[a];
+                    let p = f32::from_bits(words[at]);
                     at += 1;
                     // A minimum face is entered going +axis, a maximum face
                     // left; a negative direction swaps the two.
-                    if (k >= 3) != neg[a] {
-                        tmax = lower(tmax, exit(t));
+                    if (k >= 3) != r.neg[a] {
+                        tmax = lower(tmax, r.exit(a, p));
                     } else {
-                        tmin = raise(tmin, entry(t));
+                        tmin = raise(tmin, r.entry(a, p));
                     }
                 }
                 if nonempty(tmin, tmax) {
