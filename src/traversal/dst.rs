@@ -7,7 +7,7 @@
 //!
 //! Plane distances are widened by the ray's slack ([`super::interval::PlaneRay`]).
 
-use super::interval::{lower, nonempty, pop_live, raise, split_children, PlaneRay};
+use super::interval::{lower, nonempty, pop_live, raise, split_children};
 use super::leaf::{enter_interval, intersect_leaf};
 use super::with_stack;
 use crate::accel::dst::node::DstNode;
@@ -33,9 +33,8 @@ fn trace_n<S: Stats, const ANY: bool, const N: usize>(
     if dst.is_empty() {
         return None;
     }
-    let (br, mut tally, tn, tf) = enter_interval(ray, &dst.root_bounds.to_array(), stats)?;
+    let (r, mut tally, tn, tf) = enter_interval(ray, &dst.root_bounds, stats)?;
     let words = &dst.words[..];
-    let r = PlaneRay::new(&br, &dst.root_bounds);
     let mut best: Option<Hit> = None;
     let mut best_t = ray.tmax;
     let mut stack = [(0u32, 0f32, 0f32); N];

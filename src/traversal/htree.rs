@@ -7,7 +7,7 @@
 //! the interval is already clipped to. Popped entries are culled against
 //! the closest hit; the traversal runs until the stack is empty.
 
-use super::interval::{lower, nonempty, pop_live, raise, split_children, PlaneRay};
+use super::interval::{lower, nonempty, pop_live, raise, split_children};
 use super::leaf::{enter_interval, intersect_leaf};
 use super::with_stack;
 use crate::accel::htree::node::{LEAF_MASK, OFFSET_BITS, OFFSET_MASK};
@@ -29,9 +29,8 @@ fn trace_n<S: Stats, const ANY: bool, const N: usize>(
     if h.is_empty() {
         return None;
     }
-    let (br, mut tally, tn, tf) = enter_interval(ray, &h.root_bounds.to_array(), stats)?;
+    let (r, mut tally, tn, tf) = enter_interval(ray, &h.root_bounds, stats)?;
     let words = &h.words[..];
-    let r = PlaneRay::new(&br, &h.root_bounds);
     let mut best: Option<Hit> = None;
     let mut best_t = ray.tmax;
     let mut stack = [(0u32, 0f32, 0f32); N];

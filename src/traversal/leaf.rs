@@ -1,8 +1,9 @@
 //! What every BVH traversal does at a leaf and at an inner node of
 //! own-box nodes.
 
+use super::interval::PlaneRay;
 use crate::accel::own_box_node::OwnBoxNode;
-use crate::geometry::{BoxRay, Hit, Ray, Triangle};
+use crate::geometry::{Aabb, BoxRay, Hit, Ray, Triangle};
 use crate::stats::{Stats, Tally};
 
 /// Index-list bit: the last triangle of a leaf (one list format for every layout).
@@ -78,26 +79,26 @@ pub fn enter<S: Stats>(ray: &Ray, root: &[f32; 6], stats: &mut S) -> Option<(Box
 }
 
 /// The root box test of the interval traversals (dual-split tree, BIH,
-/// H-tree): the ray's box constants, its tally and its interval `[tn, tf]`
-/// inside the scene box, or `None` when it misses (the tally then handed
-/// to `stats`).
+/// H-tree): the ray's plane constants for trees inside `root`, its tally and
+/// its interval `[tn, tf]` inside the scene box, or `None` when it misses
+/// (the tally then handed to `stats`).
 #[inline(always)]
 pub fn enter_interval<S: Stats>(
     ray: &Ray,
-    root: &[f32; 6],
+    root: &Aabb,
     stats: &mut S,
-) -> Option<(BoxRay, Tally, f32, f32)> {
+) -> Option<(PlaneRay, Tally, f32, f32)> {
     let br = BoxRay::new(ray);
     let tally = Tally {
         planes: 6,
         ..Tally::default()
     };
-    let (tn, tf) = br.interval(root, ray.tmin, ray.tmax);
+    let (tn, tf) = br.interval(&root.to_array(), ray.tmin, ray.tmax);
     if tn > tf {
         stats.add(tally);
         return None;
     }
-    Some((br, tally, tn, tf))
+    Some((PlaneRay::new(&br, root), tally, tn, tf))
 }
 
 /// Entry distances (`+inf` on a miss) of the sibling pair whose left node is
