@@ -14,7 +14,7 @@
 //! simulation on bunny.obj's path rays) and sped the traversal up by
 //! about 10%.
 
-use super::interval::{nonempty, pop_live, split_children};
+use super::interval::{next_child, nonempty, pop_live, split_children};
 use super::leaf::{enter_interval, intersect_leaf};
 use super::with_stack;
 use crate::accel::dst::node::{is_split, CARVE_FACES, LEAF_HEADER, OFFSET_BITS, OFFSET_MASK};
@@ -65,18 +65,13 @@ fn trace_n<S: Stats, const ANY: bool, const N: usize>(
             let a = (h >> 2 & 3) as usize;
             let first = node + offset as usize;
             let second = first + (h & 3) as usize;
-            match split_children(&r, a, planes(), first, second, tmin, tmax) {
-                [Some(near), Some(far)] => {
-                    stack[sp] = (far.0 as u32, far.1, far.2);
-                    sp += 1;
-                    (node, tmin, tmax) = near;
+            let children = split_children(&r, a, planes(), first, second, tmin, tmax);
+            match next_child(children, &mut stack, &mut sp) {
+                Some(next) => {
+                    (node, tmin, tmax) = next;
                     continue;
                 }
-                [Some(c), None] | [None, Some(c)] => {
-                    (node, tmin, tmax) = c;
-                    continue;
-                }
-                [None, None] => None,
+                None => None,
             }
         } else if h != LEAF_HEADER {
             tally.planes += 2;

@@ -7,7 +7,7 @@
 //! the interval is already clipped to. Popped entries are culled against
 //! the closest hit; the traversal runs until the stack is empty.
 
-use super::interval::{face_code, nonempty, pop_live, split_children};
+use super::interval::{face_code, next_child, nonempty, pop_live, split_children};
 use super::leaf::{enter_interval, intersect_leaf};
 use super::with_stack;
 use crate::accel::htree::node::{LEAF_MASK, OFFSET_BITS, OFFSET_MASK};
@@ -48,18 +48,10 @@ fn trace_n<S: Stats, const ANY: bool, const N: usize>(
                 let a = (w >> OFFSET_BITS & 3) as usize;
                 let planes = words[node + 1..node + 3].try_into().unwrap();
                 let (first, second) = (node + 3, node + (w & OFFSET_MASK) as usize);
-                match split_children(&r, a, planes, first, second, tmin, tmax) {
-                    [Some(near), Some(far)] => {
-                        stack[sp] = (far.0 as u32, far.1, far.2);
-                        sp += 1;
-                        (node, tmin, tmax) = near;
-                        continue;
-                    }
-                    [Some(c), None] | [None, Some(c)] => {
-                        (node, tmin, tmax) = c;
-                        continue;
-                    }
-                    [None, None] => {}
+                let children = split_children(&r, a, planes, first, second, tmin, tmax);
+                if let Some(next) = next_child(children, &mut stack, &mut sp) {
+                    (node, tmin, tmax) = next;
+                    continue;
                 }
             }
             1 => {

@@ -176,6 +176,25 @@ pub fn split_children(
     ]
 }
 
+/// The child to visit next of the `[near, far]` pair from
+/// [`split_children`], the far one pushed when both are reached; `None`
+/// when neither is.
+#[inline(always)]
+pub fn next_child(
+    children: [Option<(usize, f32, f32)>; 2],
+    stack: &mut [(u32, f32, f32)],
+    sp: &mut usize,
+) -> Option<(usize, f32, f32)> {
+    match children {
+        [Some(near), Some(far)] => {
+            stack[*sp] = (far.0 as u32, far.1, far.2);
+            *sp += 1;
+            Some(near)
+        }
+        [near, far] => near.or(far),
+    }
+}
+
 /// Pops the next stack entry `(node, tmin, tmax)` whose interval still
 /// starts before the closest hit `best_t`, its `tmax` lowered to `best_t`;
 /// `None` when the stack runs out.
