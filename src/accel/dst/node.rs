@@ -20,6 +20,7 @@
 //! is the position of its first triangle in the index list.
 
 use crate::error::{Error, Result};
+use crate::traversal::interval::face_code;
 
 /// Bits of the offset field.
 pub const OFFSET_BITS: u32 = 26;
@@ -86,22 +87,18 @@ const fn carve_faces() -> [CarveFaces; 64] {
     let mut h = 0;
     while h < 64 {
         if h & 0b10_0000 != 0 {
-            let axes = match (h >> 2) & 0b11 {
-                0b00 => [0, 1],
-                0b01 => [0, 2],
-                _ => [1, 2],
-            };
+            let axes = pair_axes(h as u32 >> 2 & 0b11);
             table[h] = CarveFaces {
                 faces: [
-                    2 * axes[0] + (h & 1) as u8,
-                    2 * axes[1] + (h >> 1 & 1) as u8,
+                    face_code(axes[0] as usize, h & 1 != 0) as u8,
+                    face_code(axes[1] as usize, h & 2 != 0) as u8,
                 ],
                 leaf: h & 0b1_0000 != 0,
             };
         } else if h & 0b1_0000 != 0 && h & 0b100 == 0 && h & 0b11 != 3 {
-            let a = (h & 0b11) as u8;
+            let a = h & 0b11;
             table[h] = CarveFaces {
-                faces: [2 * a, 2 * a + 1],
+                faces: [face_code(a, false) as u8, face_code(a, true) as u8],
                 leaf: h & 0b1000 != 0,
             };
         }
@@ -112,6 +109,18 @@ const fn carve_faces() -> [CarveFaces; 64] {
 
 /// The paper's codes of the dual-axis pairs.
 pub const PAIRS: [([u8; 2], u32); 3] = [([0, 1], 0b00), ([0, 2], 0b01), ([1, 2], 0b11)];
+
+/// The axes of dual-axis pair `code`; the unused code 0b10 reads as yz.
+const fn pair_axes(code: u32) -> [u8; 2] {
+    let mut i = 0;
+    while i < PAIRS.len() {
+        if PAIRS[i].1 == code {
+            return PAIRS[i].0;
+        }
+        i += 1;
+    }
+    [1, 2]
+}
 
 impl DstNode {
     /// Words this node takes: 1 for a plain leaf, 3 otherwise.
@@ -219,7 +228,7 @@ impl DstNode {
         let planes = || [f32::from_bits(words[1]), f32::from_bits(words[2])];
         if h & 0b10_0000 != 0 {
             let code = (h >> 2) & 0b11;
-            let axes = PAIRS.iter().find(|p| p.1 == code).map_or([1, 2], |p| p.0);
+            let axes = pair_axes(code);
             DstNode::CarveDual {
                 axes,
                 max_side: [h & 1 != 0, h & 2 != 0],
