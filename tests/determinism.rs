@@ -4,7 +4,10 @@
 
 use raytree::accel::{Built, StructureKind, TraversalKind, WithAccel};
 use raytree::prelude::*;
-use raytree::render::{render, AoSettings, Image, Integrator, PathSettings};
+use raytree::render::{
+    render, render_uncounted, AoSettings, Image, Integrator, PathSettings, Rendered,
+};
+use raytree::stats::Tally;
 
 struct Render<'a> {
     scene: &'a Scene,
@@ -73,6 +76,67 @@ fn images_are_identical_for_every_structure_traversal_and_thread_count() {
                     Some(r) => assert!(*r == images[0], "{what}: differs from bvh/stack"),
                 }
             }
+        }
+    }
+}
+
+/// Both renders of one structure: counted, then uncounted.
+struct Both<'a> {
+    scene: &'a Scene,
+    integrator: &'a Integrator,
+}
+
+impl WithAccel for Both<'_> {
+    type Output = [Rendered; 2];
+    fn run<A: Accel>(self, a: &A) -> [Rendered; 2] {
+        let (s, i) = (self.scene, self.integrator);
+        [
+            render(a, s, i, 40, 32, &|_| {}),
+            render_uncounted(a, s, i, 40, 32, &|_| {}),
+        ]
+    }
+}
+
+#[test]
+fn an_uncounted_render_traces_the_same_rays_and_counts_only_them() {
+    let scene = Scene::builtin("chess:3000").unwrap();
+    let bvh = Bvh::build(&scene.triangles, &BuildOptions::sah());
+    let integrators = [
+        Integrator::Ao(AoSettings {
+            eye_rays: 1,
+            ao_rays: 4,
+            radius: 32.0,
+            background: 1.0,
+        }),
+        Integrator::Path(PathSettings::default()),
+    ];
+    for &s in StructureKind::all() {
+        let (built, _) =
+            Built::new(s, TraversalKind::Stack, &bvh, scene.triangles.clone()).unwrap();
+        for integrator in &integrators {
+            let [counted, uncounted] = built.with(Both {
+                scene: &scene,
+                integrator,
+            });
+            let what = format!("{} / {integrator:?}", s.name());
+            assert!(counted.image == uncounted.image, "{what}: images differ");
+            assert!(counted.counters.rays > 0, "{what}: no rays");
+            assert_eq!(counted.counters.rays, uncounted.counters.rays, "{what}");
+            // Brute force visits no nodes; every structure tests triangles.
+            assert!(counted.counters.triangles > 0, "{what}: nothing counted");
+            assert_eq!(
+                (
+                    uncounted.counters.nodes,
+                    uncounted.counters.planes,
+                    uncounted.counters.triangles
+                ),
+                (0, 0, 0),
+                "{what}"
+            );
+            assert!(
+                uncounted.work.pixels.iter().all(|t| *t == Tally::default()),
+                "{what}"
+            );
         }
     }
 }

@@ -239,7 +239,8 @@ fn run_dst(a: DstArgs) -> Result<()> {
         },
     };
     let pool = thread_pool(a.threads)?;
-    let frames = scenes.len() * opts.frames * opts.structures.len();
+    // One untimed counting frame per structure, then the timed ones.
+    let frames = scenes.len() * (opts.frames.max(1) + 1) * opts.structures.len();
     let bar = common::progress(frames as u64, "bench dst", a.quiet);
     let mut results = Vec::new();
     let mut tables = Vec::new();

@@ -44,10 +44,34 @@ pub struct Rendered {
 /// Image tiles are this many pixels square.
 const TILE: usize = 16;
 
-/// Renders `scene` through `accel`, counting rays and traversal work (which
-/// costs nothing measurable: traversals tally in registers).
+/// Renders `scene` through `accel`, counting rays and traversal work.
 /// `progress` is called once per finished tile.
 pub fn render<A: Accel>(
+    accel: &A,
+    scene: &Scene,
+    integrator: &Integrator,
+    width: usize,
+    height: usize,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Rendered {
+    render_with::<A, Counters>(accel, scene, integrator, width, height, progress)
+}
+
+/// [`render`] counting rays only: the traversals run with their counters
+/// compiled out, as a frame that is timed should. `work` is all zero and
+/// `counters` holds only the rays.
+pub fn render_uncounted<A: Accel>(
+    accel: &A,
+    scene: &Scene,
+    integrator: &Integrator,
+    width: usize,
+    height: usize,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Rendered {
+    render_with::<A, RaysOnly>(accel, scene, integrator, width, height, progress)
+}
+
+fn render_with<A: Accel, S: RaySink + Default>(
     accel: &A,
     scene: &Scene,
     integrator: &Integrator,
@@ -68,10 +92,10 @@ pub fn render<A: Accel>(
     let results: Vec<(Vec<(f32, Tally)>, Counters)> = tiles
         .par_iter()
         .map(|&(tx, ty)| {
-            let mut c = Counters::default();
-            let px = render_tile(accel, &ctx, integrator, tx, ty, &mut c);
+            let mut sink = S::default();
+            let px = render_tile(accel, &ctx, integrator, tx, ty, &mut sink);
             progress(1);
-            (px, c)
+            (px, sink.counters())
         })
         .collect();
     let mut image = Image::new(width, height);
@@ -114,6 +138,8 @@ struct Ctx<'a> {
 /// Sinks that know how many rays were traced.
 trait RaySink: Stats {
     fn ray(&mut self);
+    /// What was counted so far.
+    fn counters(&self) -> Counters;
 }
 
 impl RaySink for Counters {
@@ -121,29 +147,57 @@ impl RaySink for Counters {
     fn ray(&mut self) {
         self.rays += 1;
     }
+    fn counters(&self) -> Counters {
+        *self
+    }
+}
+
+/// Counts rays; the traversal work vanishes as with [`crate::stats::NoStats`].
+#[derive(Clone, Copy, Debug, Default)]
+struct RaysOnly {
+    rays: u64,
+}
+
+impl Stats for RaysOnly {
+    #[inline(always)]
+    fn add(&mut self, _: Tally) {}
+}
+
+impl RaySink for RaysOnly {
+    #[inline(always)]
+    fn ray(&mut self) {
+        self.rays += 1;
+    }
+    fn counters(&self) -> Counters {
+        Counters {
+            rays: self.rays,
+            ..Counters::default()
+        }
+    }
 }
 
 /// A tile's pixel values, each with the work of its rays.
-fn render_tile<A: Accel>(
+fn render_tile<A: Accel, S: RaySink>(
     accel: &A,
     ctx: &Ctx,
     integrator: &Integrator,
     tx: usize,
     ty: usize,
-    stats: &mut Counters,
+    stats: &mut S,
 ) -> Vec<(f32, Tally)> {
     let mut out = Vec::with_capacity(TILE * TILE);
     for y in ty * TILE..((ty + 1) * TILE).min(ctx.height) {
         for x in tx * TILE..((tx + 1) * TILE).min(ctx.width) {
-            let before = *stats;
+            let before = stats.counters();
             let v = match integrator {
                 Integrator::Ao(s) => ao::pixel(accel, ctx, s, x, y, stats),
                 Integrator::Path(s) => path::pixel(accel, ctx, s, x, y, stats),
             };
+            let after = stats.counters();
             let work = Tally {
-                nodes: (stats.nodes - before.nodes) as u32,
-                planes: (stats.planes - before.planes) as u32,
-                triangles: (stats.triangles - before.triangles) as u32,
+                nodes: (after.nodes - before.nodes) as u32,
+                planes: (after.planes - before.planes) as u32,
+                triangles: (after.triangles - before.triangles) as u32,
             };
             out.push((v, work));
         }
