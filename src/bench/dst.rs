@@ -7,7 +7,7 @@
 //! cores. Every structure first renders one untimed frame that counts the
 //! work and gives the image; it also warms the caches and pages that the
 //! first timed frame would otherwise pay for (on plant:12M at 256×256 that
-//! cost the first structure 14% of its mean over 16 frames). The timed
+//! added 5–9% to the first structure's mean over 16 frames). The timed
 //! frames then run with the counters compiled out, round-robin over the
 //! structures (frame 1 of each, then frame 2 of each, ...) so that drift in
 //! the machine's speed touches every structure alike; a structure's frame
