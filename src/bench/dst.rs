@@ -202,12 +202,12 @@ pub fn run_scene(scene: &Scene, opts: &Options, tick: &dyn Fn()) -> Result<Scene
         size: (opts.width, opts.height),
         counted,
     };
-    let firsts: Vec<Option<Rendered>> = built
+    let firsts: Vec<Rendered> = built
         .iter()
         .map(|(b, _)| {
             let r = b.with(frame(true));
             tick();
-            Some(r)
+            r
         })
         .collect();
     let mut times = vec![Vec::with_capacity(frames); built.len()];
@@ -219,7 +219,7 @@ pub fn run_scene(scene: &Scene, opts: &Options, tick: &dyn Fn()) -> Result<Scene
     }
     let mut rows: Vec<Row> = Vec::new();
     for (k, (_, info)) in built.iter().enumerate() {
-        let r = firsts[k].as_ref().expect("one frame at least");
+        let r = &firsts[k];
         let mean = times[k].iter().sum::<f64>() / times[k].len() as f64;
         rows.push(Row {
             structure: info.structure,
@@ -247,7 +247,7 @@ pub fn run_scene(scene: &Scene, opts: &Options, tick: &dyn Fn()) -> Result<Scene
         let bvh = &rows[b];
         let (bytes, node_bytes, secs, per) =
             (bvh.bytes, bvh.node_bytes, bvh.frame_seconds, bvh.per_ray);
-        let image: &Image = &firsts[b].as_ref().expect("rendered").image;
+        let image: &Image = &firsts[b].image;
         let ratio = |x: f64, of: f64| x / of.max(1e-12);
         for (k, row) in rows.iter_mut().enumerate() {
             row.vs_bvh = Some(VsBvh {
@@ -257,22 +257,19 @@ pub fn run_scene(scene: &Scene, opts: &Options, tick: &dyn Fn()) -> Result<Scene
                 nodes_ratio: ratio(row.per_ray.nodes, per.nodes),
                 planes_ratio: ratio(row.per_ray.planes, per.planes),
                 triangles_ratio: ratio(row.per_ray.triangles, per.triangles),
-                same_image: firsts[k].as_ref().expect("rendered").image == *image,
+                same_image: firsts[k].image == *image,
             });
         }
     }
     let mut pictures = Pictures {
-        frame: firsts[0]
-            .as_ref()
-            .map(|r| r.image.to_png())
-            .unwrap_or_default(),
+        frame: firsts.first().map(|r| r.image.to_png()).unwrap_or_default(),
         heatmaps: Vec::new(),
     };
     let mapped: Vec<(StructureKind, &Rendered)> = [StructureKind::Bvh, StructureKind::Dst]
         .into_iter()
         .filter_map(|k| {
             let i = opts.structures.iter().position(|&s| s == k)?;
-            Some((k, firsts[i].as_ref()?))
+            Some((k, &firsts[i]))
         })
         .collect();
     for m in [Measure::Planes, Measure::Triangles] {
