@@ -2,9 +2,12 @@
 //! ray first (closest hit), then every AO ray (any hit), each phase timed and
 //! counted on its own. The image equals [`super::render`]'s AO image bit for
 //! bit: the same samples, random streams and sums.
+//!
+//! [`render_ao_phased_uncounted`] is the same render with the traversal
+//! counters compiled out, for phases that are timed.
 
 use super::ao::{ao_value, eye_sample, EyeSample};
-use super::{AoSettings, Ctx, Image};
+use super::{AoSettings, Ctx, Image, RaySink, RaysOnly};
 use crate::accel::Accel;
 use crate::scene::Scene;
 use crate::stats::Counters;
@@ -26,10 +29,41 @@ pub struct PhasedAo {
     pub ao: Phase,
 }
 
+impl PhasedAo {
+    /// Both phases' time.
+    pub fn seconds(&self) -> f64 {
+        self.eye.seconds + self.ao.seconds
+    }
+}
+
 /// Rows are handed out in chunks of this many pixels.
 const CHUNK: usize = 256;
 
+/// AO of `scene` through `accel`, eye rays then AO rays, each phase timed
+/// and counted.
 pub fn render_ao_phased<A: Accel>(
+    accel: &A,
+    scene: &Scene,
+    s: &AoSettings,
+    width: usize,
+    height: usize,
+) -> PhasedAo {
+    phased_with::<A, Counters>(accel, scene, s, width, height)
+}
+
+/// [`render_ao_phased`] counting rays only: the same image and rays, the
+/// traversals' counters compiled out.
+pub fn render_ao_phased_uncounted<A: Accel>(
+    accel: &A,
+    scene: &Scene,
+    s: &AoSettings,
+    width: usize,
+    height: usize,
+) -> PhasedAo {
+    phased_with::<A, RaysOnly>(accel, scene, s, width, height)
+}
+
+fn phased_with<A: Accel, S: RaySink + Default>(
     accel: &A,
     scene: &Scene,
     s: &AoSettings,
@@ -48,7 +82,7 @@ pub fn render_ao_phased<A: Accel>(
     let eye: Vec<(Vec<EyeSample>, Counters)> = pixels
         .par_chunks(CHUNK)
         .map(|chunk| {
-            let mut c = Counters::default();
+            let mut c = S::default();
             let mut samples = Vec::with_capacity(chunk.len() * n);
             for &p in chunk {
                 for sample in 0..s.eye_rays {
@@ -62,7 +96,7 @@ pub fn render_ao_phased<A: Accel>(
                     ));
                 }
             }
-            (samples, c)
+            (samples, c.counters())
         })
         .collect();
     let eye_phase = Phase {
@@ -74,7 +108,7 @@ pub fn render_ao_phased<A: Accel>(
     let ao: Vec<(Vec<f32>, Counters)> = eye
         .into_par_iter()
         .map(|(mut samples, _)| {
-            let mut c = Counters::default();
+            let mut c = S::default();
             let values = samples
                 .chunks_mut(n.max(1))
                 .map(|pixel| {
@@ -85,7 +119,7 @@ pub fn render_ao_phased<A: Accel>(
                     v / s.eye_rays.max(1) as f32
                 })
                 .collect();
-            (values, c)
+            (values, c.counters())
         })
         .collect();
     let ao_phase = Phase {
@@ -133,5 +167,36 @@ mod tests {
         total += phased.ao.counters;
         assert_eq!(total, plain.counters);
         assert_eq!(phased.eye.counters.rays, 41 * 17 * 3);
+    }
+
+    #[test]
+    fn uncounted_phases_trace_the_same_rays_and_count_only_them() {
+        let scene = Scene::builtin("chess:3000").unwrap();
+        let bvh = Bvh::build(&scene.triangles, &BuildOptions::sah());
+        let b = BinaryBvh::from_bvh(&bvh, scene.triangles.clone()).unwrap();
+        let s = AoSettings {
+            eye_rays: 2,
+            ao_rays: 4,
+            radius: 30.0,
+            background: 1.0,
+        };
+        let counted = render_ao_phased(&b, &scene, &s, 23, 19);
+        let timed = render_ao_phased_uncounted(&b, &scene, &s, 23, 19);
+        assert_eq!(timed.image, counted.image);
+        for (t, c) in [(timed.eye, counted.eye), (timed.ao, counted.ao)] {
+            assert_eq!(t.counters.rays, c.counters.rays);
+            assert!(c.counters.nodes > 0 && c.counters.triangles > 0);
+            let only_rays = Counters {
+                rays: c.counters.rays,
+                ..Counters::default()
+            };
+            assert_eq!(t.counters, only_rays);
+        }
+        // Enough eye rays hit for the AO phase to be tested too.
+        assert!(
+            counted.ao.counters.rays > 500,
+            "{}",
+            counted.ao.counters.rays
+        );
     }
 }

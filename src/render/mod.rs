@@ -14,7 +14,7 @@ mod sampling;
 
 pub use self::image::{remove_unfinished_files, write_atomically, Image};
 pub use ao::AoSettings;
-pub use ao_phased::{render_ao_phased, Phase, PhasedAo};
+pub use ao_phased::{render_ao_phased, render_ao_phased_uncounted, Phase, PhasedAo};
 pub use path::PathSettings;
 
 use crate::accel::Accel;
