@@ -372,6 +372,16 @@ fn bench_stackless_reports_every_algorithm() {
             assert!(row["ratio"].as_f64().unwrap().is_finite());
             assert_eq!(row["same_image"], true, "{name} renders another image");
             assert!(row["state_bytes"].as_u64().unwrap() > 0);
+            // The work comes from the counted render, not the timed ones.
+            for phase in ["eye", "ao"] {
+                assert!(row[phase]["counters"]["nodes"].as_u64().unwrap() > 0);
+                assert!(
+                    row[format!("{phase}_per_ray")]["triangles"]
+                        .as_f64()
+                        .unwrap()
+                        > 0.0
+                );
+            }
         }
     }
     for t in [1, 2] {
