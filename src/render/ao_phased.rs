@@ -149,17 +149,23 @@ mod tests {
     use crate::bvh::{BuildOptions, Bvh};
     use crate::render::{render, Integrator};
 
-    #[test]
-    fn phased_image_equals_the_interleaved_render() {
+    /// A small chess scene, its BVH and AO with `eye_rays` and `ao_rays`.
+    fn chess(eye_rays: u32, ao_rays: u32) -> (Scene, BinaryBvh, AoSettings) {
         let scene = Scene::builtin("chess:3000").unwrap();
         let bvh = Bvh::build(&scene.triangles, &BuildOptions::sah());
         let b = BinaryBvh::from_bvh(&bvh, scene.triangles.clone()).unwrap();
         let s = AoSettings {
-            eye_rays: 3,
-            ao_rays: 5,
+            eye_rays,
+            ao_rays,
             radius: 30.0,
             background: 1.0,
         };
+        (scene, b, s)
+    }
+
+    #[test]
+    fn phased_image_equals_the_interleaved_render() {
+        let (scene, b, s) = chess(3, 5);
         let phased = render_ao_phased(&b, &scene, &s, 41, 17);
         let plain = render(&b, &scene, &Integrator::Ao(s.clone()), 41, 17, &|_| {});
         assert_eq!(phased.image, plain.image);
@@ -171,15 +177,7 @@ mod tests {
 
     #[test]
     fn uncounted_phases_trace_the_same_rays_and_count_only_them() {
-        let scene = Scene::builtin("chess:3000").unwrap();
-        let bvh = Bvh::build(&scene.triangles, &BuildOptions::sah());
-        let b = BinaryBvh::from_bvh(&bvh, scene.triangles.clone()).unwrap();
-        let s = AoSettings {
-            eye_rays: 2,
-            ao_rays: 4,
-            radius: 30.0,
-            background: 1.0,
-        };
+        let (scene, b, s) = chess(2, 4);
         let counted = render_ao_phased(&b, &scene, &s, 23, 19);
         let timed = render_ao_phased_uncounted(&b, &scene, &s, 23, 19);
         assert_eq!(timed.image, counted.image);
