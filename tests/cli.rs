@@ -649,3 +649,64 @@ fn a_scene_too_big_for_memory_is_refused_before_it_is_built() {
     );
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
 }
+
+/// A reader that goes away (`raytree bench dst | head -1`) ends the printing,
+/// not the command: no panic, a normal exit, and the JSON still written.
+#[test]
+fn a_closed_pipe_stops_the_printing_but_not_the_command() {
+    use std::process::Stdio;
+    let dir = tempfile::tempdir().unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_raytree"))
+        .args([
+            "bench",
+            "dst",
+            "-q",
+            "-s",
+            "chess:2000",
+            "-s",
+            "hairball:2000",
+            "--width",
+            "16",
+            "--height",
+            "16",
+            "--frames",
+            "1",
+            "--json",
+            "b.json",
+        ])
+        .current_dir(dir.path())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Close the reading end before the first line is printed: scenes are
+    // built and structures converted first.
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "exit {:?}: {err}", out.status.code());
+    assert!(!err.contains("panicked"), "{err}");
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("b.json")).unwrap()).unwrap();
+    assert_eq!(json.as_array().unwrap().len(), 2);
+}
+
+/// Standard output that cannot be written for another reason (a full
+/// disk) fails the command with one line on stderr.
+#[cfg(target_os = "linux")]
+#[test]
+fn an_unwritable_stdout_fails_the_command() {
+    let full = std::fs::OpenOptions::new()
+        .write(true)
+        .open("/dev/full")
+        .unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_raytree"))
+        .args(["info", "-s", "chess:2000"])
+        .stdout(full)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    assert!(err.contains("cannot write to standard output"), "{err}");
+}

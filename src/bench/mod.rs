@@ -2,6 +2,7 @@
 //! command and the tests.
 
 pub mod dst;
+pub mod machine;
 pub mod peers;
 pub mod report;
 pub mod stackless;

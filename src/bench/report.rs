@@ -4,6 +4,7 @@
 //! and a CSV file with one row per scene and structure.
 
 use super::dst::{percent_cell, same_image_cell, SceneResult, VsBvh};
+use super::machine::Machine;
 use super::svg::{stacked_bars, Bar};
 use crate::stats::MIB;
 use base64::Engine;
@@ -98,7 +99,7 @@ fn chart(
 
 /// The HTML report; `markdown` holds each scene's table as the command
 /// printed it.
-pub fn html(results: &[SceneResult], markdown: &[String]) -> String {
+pub fn html(results: &[SceneResult], markdown: &[String], machine: &Machine) -> String {
     let mut s = String::from(
         r#"<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>raytree bench dst</title>
@@ -115,6 +116,7 @@ img { image-rendering: pixelated; max-width: 512px; }
 <p>Every structure is converted from one BVH per scene; path tracing at 1 sample per pixel with 5 diffuse bounces. Each structure renders one untimed frame that counts the work (the images and heat maps come from it); the timed frames run with counting compiled out, round-robin over the structures. Ratios are to the uncompressed BVH (52-byte inner nodes, 4-byte leaves) in the same run. Storage counts the nodes and the triangle index list; <em>nodes</em> counts the nodes alone, in MiB, as the paper's Table 1 does.</p>
 "#,
     );
+    s += &format!("<p>{}</p>\n", escape(&machine.describe()));
     if let Some(md) = super::dst::summary(results) {
         s += &format!(
             "<section><h2>All scenes</h2><pre>{}</pre></section>\n",

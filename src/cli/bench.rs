@@ -1,8 +1,10 @@
 //! `raytree bench`: the papers' measurements.
 
 use super::common::{self, BuilderArg};
+use super::out::say;
 use clap::{Args, Subcommand};
 use raytree::accel::StructureKind;
+use raytree::bench::machine::Machine;
 use raytree::bench::stackless::{self, Preset};
 use raytree::bench::svg::{stacked_bars, Bar};
 use raytree::bench::{dst, peers, report};
@@ -189,12 +191,14 @@ fn run_peers(a: PeersArgs) -> Result<()> {
     opts.height = a.height.map_or(opts.height, |v| v as usize);
     opts.repeats = a.repeats.map_or(opts.repeats, |v| v as usize);
     let pool = thread_pool(a.threads)?;
+    say!(
+        "{}",
+        Machine::detect(&[pool.current_num_threads()]).describe()
+    );
     let contenders = peers::available();
-    println!("contenders: {}", contenders.join(", "));
+    say!("contenders: {}", contenders.join(", "));
     if !cfg!(feature = "embree") {
-        println!(
-            "(Embree is left out: build with --features embree, after apt install libembree-dev)"
-        );
+        say!("(Embree is left out: build with --features embree, after apt install libembree-dev)");
     }
     let runs = scenes.len() * peers::WORKLOADS.len() * opts.repeats * contenders.len();
     let bar = common::progress(runs as u64, "bench peers", a.quiet);
@@ -204,11 +208,11 @@ fn run_peers(a: PeersArgs) -> Result<()> {
         let scene = Scene::from_spec(spec)?;
         let r = pool.install(|| peers::run_scene(&scene, &opts, &|| bar.inc(1)))?;
         let md = peers::markdown(&r);
-        bar.suspend(|| println!("{md}"));
+        bar.suspend(|| say!("{md}"));
         results.push(r);
     }
     bar.finish_and_clear();
-    println!("Mrays/s from the median of {} runs on all threads; (×) is the speed over raytree's BVH with STACK, same run. primary and path: closest hit; ao: any hit.", opts.repeats);
+    say!("Mrays/s from the median of {} runs on all threads; (×) is the speed over raytree's BVH with STACK, same run. primary and path: closest hit; ao: any hit.", opts.repeats);
     if let Some(p) = &a.json {
         common::write_json(p, &results)?;
     }
@@ -240,6 +244,8 @@ fn run_dst(a: DstArgs) -> Result<()> {
         },
     };
     let pool = thread_pool(a.threads)?;
+    let machine = Machine::detect(&[pool.current_num_threads()]);
+    say!("{}", machine.describe());
     // One untimed counting frame per structure, then the timed ones.
     let frames = scenes.len() * (opts.frames.max(1) + 1) * opts.structures.len();
     let bar = common::progress(frames as u64, "bench dst", a.quiet);
@@ -254,15 +260,15 @@ fn run_dst(a: DstArgs) -> Result<()> {
         cam.fov_y = a.fov.unwrap_or(cam.fov_y);
         let r = pool.install(|| dst::run_scene(&scene, &opts, &|| bar.inc(1)))?;
         let md = dst::markdown(&r);
-        bar.suspend(|| println!("{md}"));
+        bar.suspend(|| say!("{md}"));
         tables.push(md);
         results.push(r);
     }
     bar.finish_and_clear();
     if let Some(md) = dst::summary(&results) {
-        println!("{md}");
+        say!("{md}");
     }
-    println!("vs bvh: storage (nodes and triangle index list), node storage alone (in MiB, as the paper's Table 1 counts it), mean frame time and per-ray work over the uncompressed BVH's (52-byte inner nodes, 4-byte leaves), same run; plane tests count 6 per box and 2 per two-plane node; {} where the BVH was not measured.", dst::NONE);
+    say!("vs bvh: storage (nodes and triangle index list), node storage alone (in MiB, as the paper's Table 1 counts it), mean frame time and per-ray work over the uncompressed BVH's (52-byte inner nodes, 4-byte leaves), same run; plane tests count 6 per box and 2 per two-plane node; {} where the BVH was not measured.", dst::NONE);
     if let Some(p) = &a.json {
         common::write_json(p, &results)?;
     }
@@ -277,10 +283,10 @@ fn run_dst(a: DstArgs) -> Result<()> {
                 w.write_all(text.as_bytes())
             })
         };
-        write("report.html", report::html(&results, &tables))?;
+        write("report.html", report::html(&results, &tables, &machine))?;
         write("dst.csv", report::csv(&results))?;
         common::write_json(&dir.join("dst.json"), &results)?;
-        println!("report: {}", dir.join("report.html").display());
+        say!("report: {}", dir.join("report.html").display());
     }
     Ok(())
 }
@@ -323,6 +329,7 @@ fn run_stackless(a: StacklessArgs) -> Result<()> {
             )));
         }
     }
+    say!("{}", Machine::detect(&threads).describe());
     // Per row: one counted render, then the timed ones.
     let renders = scenes.len() * threads.len() * stackless::ROWS.len() * (1 + a.repeats as usize);
     let bar = common::progress(renders as u64, "bench stackless", a.quiet);
@@ -335,14 +342,14 @@ fn run_stackless(a: StacklessArgs) -> Result<()> {
         cam.target = a.look_at.unwrap_or(cam.target);
         cam.fov_y = a.fov.unwrap_or(cam.fov_y);
         let r = stackless::run_scene(&scene, &opts, &|| bar.inc(1))?;
-        bar.suspend(|| println!("{}", stackless::markdown(&r)));
+        bar.suspend(|| say!("{}", stackless::markdown(&r)));
         if let Some(dir) = &a.charts {
             write_charts(dir, &r)?;
         }
         results.push(r);
     }
     bar.finish_and_clear();
-    println!(
+    say!(
         "ratio: time over {}'s (STACK on the same 32-byte nodes), same scene and threads; state B counts 4 bytes per 32-bit state variable (8 per 64-bit), a stack adds its head and 4 bytes per entry.",
         stackless::REFERENCE
     );

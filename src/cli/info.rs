@@ -1,6 +1,7 @@
 //! `raytree info`.
 
 use super::common::{self, SceneArgs, SceneReport};
+use super::out::say;
 use clap::Args;
 use raytree::accel::{Built, StructureInfo, StructureKind, TraversalKind};
 use raytree::bvh::BuildStats;
@@ -57,18 +58,20 @@ pub fn run(args: InfoArgs) -> Result<()> {
         refused,
     };
     let (lo, hi) = (r.scene.bounds_min, r.scene.bounds_max);
-    println!("scene       {}", r.scene.scene);
-    println!(
+    say!("scene       {}", r.scene.scene);
+    say!(
         "triangles   {} ({} vertices), loaded in {:.3} s",
-        r.scene.triangles, r.scene.vertices, r.scene.load_seconds
+        r.scene.triangles,
+        r.scene.vertices,
+        r.scene.load_seconds
     );
-    println!("bounds      {lo:?} .. {hi:?}");
+    say!("bounds      {lo:?} .. {hi:?}");
     let b = &r.bvh;
-    println!(
+    say!(
         "bvh         {} builder, leaves of at most {}: {} nodes ({} inner, {} leaves), depth {}, SAH cost {:.3}, {} degenerate triangles left out, built in {:.3} s",
         b.builder, b.max_leaf_size, b.nodes, b.inner_nodes, b.leaves, b.depth, b.sah_cost, b.degenerate_triangles, b.build_seconds
     );
-    println!();
+    say!();
     let bvh = r
         .structures
         .iter()
@@ -82,12 +85,12 @@ pub fn run(args: InfoArgs) -> Result<()> {
     // counts storage) against its nodes alone.
     let vs_bvh = |bytes: usize| ratio(bytes, bvh.map(|b| b.bytes));
     let vs_bvh_nodes = |bytes: usize| ratio(bytes, bvh.map(|b| b.node_bytes));
-    println!(
+    say!(
         "| structure | bytes | MiB | vs bvh | node bytes | vs bvh nodes | index bytes | inner nodes | leaves | conversion s |"
     );
-    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    say!("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for s in &r.structures {
-        println!(
+        say!(
             "| {} | {} | {:.3} | {} | {} | {} | {} | {} | {} | {:.4} |",
             s.structure.name(),
             s.bytes,
@@ -102,7 +105,7 @@ pub fn run(args: InfoArgs) -> Result<()> {
         );
     }
     for x in &r.refused {
-        println!("| {} | refused: {} ||||||||", x.structure.name(), x.error);
+        say!("| {} | refused: {} ||||||||", x.structure.name(), x.error);
     }
     let dsts: Vec<_> = r
         .structures
@@ -110,14 +113,14 @@ pub fn run(args: InfoArgs) -> Result<()> {
         .filter_map(|s| s.dst.as_ref().map(|d| (s.structure, d)))
         .collect();
     if !dsts.is_empty() {
-        println!();
-        println!("| two-plane tree (bih: clip nodes are 1-axis carving) | storage vs bvh | least identical vs bvh | nodes vs bvh nodes | least identical vs bvh nodes | split | carve 1-axis | carve 2-axis | carving leaves | plain leaves | 0 / 1 / 2 / 3 carving levels | 1-axis : 2-axis |");
-        println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---|");
+        say!();
+        say!("| two-plane tree (bih: clip nodes are 1-axis carving) | storage vs bvh | least identical vs bvh | nodes vs bvh nodes | least identical vs bvh nodes | split | carve 1-axis | carve 2-axis | carving leaves | plain leaves | 0 / 1 / 2 / 3 carving levels | 1-axis : 2-axis |");
+        say!("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---|");
         for (kind, d) in dsts {
             let levels = d.carving_levels;
             let all = levels.iter().sum::<usize>().max(1) as f64;
             let carves = (d.carve_single + d.carve_dual).max(1) as f64;
-            println!(
+            say!(
                 "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.0}% / {:.0}% / {:.0}% / {:.1}% | {:.0}% : {:.0}% |",
                 kind.name(),
                 vs_bvh(d.node_bytes + d.index_bytes),
@@ -140,11 +143,11 @@ pub fn run(args: InfoArgs) -> Result<()> {
     }
     for s in &r.structures {
         if let Some(h) = &s.htree {
-            println!();
-            println!("| h-tree | split | bounding | leaves | bounding nodes storing 1 / 2 / 3 / 4 / 5 / 6 faces |");
-            println!("|---|---:|---:|---:|---|");
+            say!();
+            say!("| h-tree | split | bounding | leaves | bounding nodes storing 1 / 2 / 3 / 4 / 5 / 6 faces |");
+            say!("|---|---:|---:|---:|---|");
             let f = h.bound_faces;
-            println!(
+            say!(
                 "| {} | {} | {} | {} | {} / {} / {} / {} / {} / {} |",
                 s.structure.name(),
                 h.split_nodes,

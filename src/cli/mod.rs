@@ -5,6 +5,7 @@
 mod bench;
 mod common;
 mod info;
+mod out;
 mod render;
 mod trace;
 
@@ -48,6 +49,8 @@ pub fn main() -> ExitCode {
         Command::Bench(c) => bench::run(c),
     };
     match result {
+        // Its line is already on stderr.
+        Ok(()) if out::failed() => ExitCode::FAILURE,
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             // One line: the cause, with file and line or limit where known.

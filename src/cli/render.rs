@@ -1,6 +1,7 @@
 //! `raytree render`.
 
 use super::common::{self, SceneArgs, SceneReport, StructureArgs};
+use super::out::say;
 use clap::{Args, ValueEnum};
 use raytree::accel::{Accel, StructureInfo, WithAccel};
 use raytree::bvh::BuildStats;
@@ -253,15 +254,20 @@ fn run_in_pool(args: &RenderArgs) -> Result<()> {
 fn print_report(r: &RenderReport) {
     let b = &r.bvh;
     let s = &r.structure;
-    println!(
+    say!(
         "scene      {} ({} triangles)",
-        r.scene.scene, r.scene.triangles
+        r.scene.scene,
+        r.scene.triangles
     );
-    println!(
+    say!(
         "bvh        {} builder, {} nodes, depth {}, SAH cost {:.2}, built in {:.3} s",
-        b.builder, b.nodes, b.depth, b.sah_cost, b.build_seconds
+        b.builder,
+        b.nodes,
+        b.depth,
+        b.sah_cost,
+        b.build_seconds
     );
-    println!(
+    say!(
         "structure  {}{}: {} (nodes {}, index {}), converted in {:.3} s",
         s.structure.name(),
         s.traversal
@@ -280,18 +286,23 @@ fn print_report(r: &RenderReport) {
         (_, Some(p)) => format!("path, {} spp, {} bounces", p.samples, p.bounces),
         _ => String::new(),
     };
-    println!(
+    say!(
         "render     {}×{} {what}: {:.3} s on {} threads",
-        r.width, r.height, r.render_seconds, r.threads,
+        r.width,
+        r.height,
+        r.render_seconds,
+        r.threads,
     );
-    println!("rays       {} ({:.2} Mrays/s)", r.rays, r.mrays_per_second);
-    println!(
+    say!("rays       {} ({:.2} Mrays/s)", r.rays, r.mrays_per_second);
+    say!(
         "per ray    {:.2} nodes, {:.2} plane tests, {:.2} triangle tests",
-        r.per_ray.nodes, r.per_ray.planes, r.per_ray.triangles
+        r.per_ray.nodes,
+        r.per_ray.planes,
+        r.per_ray.triangles
     );
-    println!("wrote      {}", r.image.display());
+    say!("wrote      {}", r.image.display());
     for h in &r.heatmaps {
-        println!(
+        say!(
             "heat map   {} per pixel: mean {:.1}, largest {}; scale 0 (dark) to {} (white): {}",
             h.info.measure.name(),
             h.info.mean,

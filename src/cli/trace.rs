@@ -1,6 +1,7 @@
 //! `raytree trace`: rays from a file, hits to a file.
 
 use super::common::{self, SceneArgs, SceneReport, StructureArgs};
+use super::out::say;
 use clap::{Args, ValueEnum};
 use rayon::prelude::*;
 use raytree::accel::{Accel, StructureInfo, WithAccel};
@@ -146,7 +147,7 @@ pub fn run(args: TraceArgs) -> Result<()> {
             counters,
             per_ray: counters.per_ray(),
         };
-        println!(
+        say!(
             "traced     {} rays ({} hits) through {} in {:.3} s: {:.2} Mrays/s on {} threads",
             report.rays,
             report.hits,
@@ -157,12 +158,14 @@ pub fn run(args: TraceArgs) -> Result<()> {
         );
         if args.stats {
             let p = report.per_ray;
-            println!(
+            say!(
                 "per ray    {:.2} nodes, {:.2} plane tests, {:.2} triangle tests",
-                p.nodes, p.planes, p.triangles
+                p.nodes,
+                p.planes,
+                p.triangles
             );
         }
-        println!("wrote      {}", args.out.display());
+        say!("wrote      {}", args.out.display());
         if let Some(p) = &args.json {
             common::write_json(p, &report)?;
         }
