@@ -93,6 +93,7 @@ fn ao_and_path_renders_have_the_asked_size() {
         assert!(json["rays"].as_u64().unwrap() >= 40 * 24);
         assert!(json["per_ray"]["nodes"].as_f64().unwrap() > 0.0);
         assert_eq!(json["structure"]["structure"], "bvh");
+        assert_eq!(json["machine"]["threads"][0], json["threads"]);
     }
 }
 
@@ -180,6 +181,7 @@ fn trace_gives_the_librarys_answers() {
                 serde_json::from_slice(&std::fs::read(dir.path().join("t.json")).unwrap()).unwrap();
             assert_eq!(json["rays"], rays.len());
             assert!(json["mrays_per_second"].as_f64().unwrap() > 0.0);
+            assert_eq!(json["machine"]["threads"][0], json["threads"]);
         }
         // CSV: the same values as text.
         let mut args = vec![
@@ -357,7 +359,9 @@ fn bench_stackless_reports_every_algorithm() {
     ));
     let json: serde_json::Value =
         serde_json::from_slice(&std::fs::read(dir.path().join("b.json")).unwrap()).unwrap();
-    let scenes = json.as_array().unwrap();
+    // The machine beside the figures: the thread counts asked for.
+    assert_eq!(json["machine"]["threads"], serde_json::json!([1, 2]));
+    let scenes = json["scenes"].as_array().unwrap();
     assert_eq!(scenes.len(), 2);
     for scene in scenes {
         let rows = scene["rows"].as_array().unwrap();
@@ -455,7 +459,8 @@ fn bench_dst_reports_every_structure() {
     for s in ["bvh", "dst", "dst-similar", "bih", "htree", "cbvh"] {
         assert!(html.contains(&format!("<td>{s}</td>")), "{s} missing");
     }
-    let scenes = json.as_array().unwrap();
+    assert!(json["machine"]["logical_cores"].as_u64().unwrap() >= 1);
+    let scenes = json["scenes"].as_array().unwrap();
     assert_eq!(scenes.len(), 2);
     for scene in scenes {
         assert_eq!(scene["frames"], 2);
@@ -538,7 +543,7 @@ fn bench_dst_without_the_bvh_shows_no_ratios() {
     ));
     let json: serde_json::Value =
         serde_json::from_slice(&std::fs::read(dir.path().join("d.json")).unwrap()).unwrap();
-    for row in json[0]["rows"].as_array().unwrap() {
+    for row in json["scenes"][0]["rows"].as_array().unwrap() {
         for key in ["storage_ratio", "frame_ratio", "same_image"] {
             assert!(row.get(key).is_none(), "{key} without a BVH to compare");
         }
@@ -688,7 +693,7 @@ fn a_closed_pipe_stops_the_printing_but_not_the_command() {
     assert!(!err.contains("panicked"), "{err}");
     let json: serde_json::Value =
         serde_json::from_slice(&std::fs::read(dir.path().join("b.json")).unwrap()).unwrap();
-    assert_eq!(json.as_array().unwrap().len(), 2);
+    assert_eq!(json["scenes"].as_array().unwrap().len(), 2);
 }
 
 /// Standard output that cannot be written for another reason (a full

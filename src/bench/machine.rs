@@ -70,6 +70,14 @@ impl Machine {
     }
 }
 
+/// A benchmark's JSON: the machine it ran on beside its results, so that
+/// a figure read back later still says where it came from.
+#[derive(Debug, Serialize)]
+pub struct Measured<'a, T> {
+    pub machine: &'a Machine,
+    pub scenes: &'a [T],
+}
+
 /// The first "model name" of `/proc/cpuinfo`.
 fn cpu_model() -> Option<String> {
     let info = std::fs::read_to_string("/proc/cpuinfo").ok()?;

@@ -4,6 +4,7 @@ use super::common::{self, SceneArgs, SceneReport, StructureArgs};
 use super::out::say;
 use clap::{Args, ValueEnum};
 use raytree::accel::{Accel, StructureInfo, WithAccel};
+use raytree::bench::machine::Machine;
 use raytree::bvh::BuildStats;
 use raytree::error::{Error, Result};
 use raytree::render::heatmap::{HeatmapInfo, Measure};
@@ -96,6 +97,8 @@ struct RenderReport {
     width: usize,
     height: usize,
     threads: usize,
+    /// What the timing ran on.
+    machine: Machine,
     render_seconds: f64,
     rays: u64,
     mrays_per_second: f64,
@@ -236,6 +239,7 @@ fn run_in_pool(args: &RenderArgs) -> Result<()> {
         width,
         height,
         threads: rayon::current_num_threads(),
+        machine: Machine::detect(&[rayon::current_num_threads()]),
         render_seconds: rendered.seconds,
         rays: c.rays,
         mrays_per_second: c.rays as f64 / rendered.seconds / 1e6,

@@ -5,6 +5,7 @@ use super::out::say;
 use clap::{Args, ValueEnum};
 use rayon::prelude::*;
 use raytree::accel::{Accel, StructureInfo, WithAccel};
+use raytree::bench::machine::Machine;
 use raytree::bvh::BuildStats;
 use raytree::error::Result;
 use raytree::geometry::{Hit, Ray};
@@ -64,6 +65,8 @@ struct TraceReport {
     rays: usize,
     hits: usize,
     threads: usize,
+    /// What the timing ran on.
+    machine: Machine,
     /// Tracing only: no file input or output.
     trace_seconds: f64,
     mrays_per_second: f64,
@@ -142,6 +145,7 @@ pub fn run(args: TraceArgs) -> Result<()> {
             rays: rays.len(),
             hits: hits.iter().filter(|h| h.is_some()).count(),
             threads: rayon::current_num_threads(),
+            machine: Machine::detect(&[rayon::current_num_threads()]),
             trace_seconds: seconds,
             mrays_per_second: rays.len() as f64 / seconds.max(1e-12) / 1e6,
             counters,
