@@ -4,7 +4,7 @@ use super::common::{self, BuilderArg};
 use super::out::say;
 use clap::{Args, Subcommand};
 use raytree::accel::StructureKind;
-use raytree::bench::machine::{Machine, Measured};
+use raytree::bench::machine::Machine;
 use raytree::bench::stackless::{self, Preset};
 use raytree::bench::svg::{stacked_bars, Bar};
 use raytree::bench::{dst, peers, report};
@@ -212,13 +212,7 @@ fn run_peers(a: PeersArgs) -> Result<()> {
     bar.finish_and_clear();
     say!("Mrays/s from the median of {} runs on all threads; (×) is the speed over raytree's BVH with STACK, same run. primary and path: closest hit; ao: any hit.", opts.repeats);
     if let Some(p) = &a.json {
-        common::write_json(
-            p,
-            &Measured {
-                machine: &machine,
-                scenes: &results,
-            },
-        )?;
+        common::write_bench_json(p, &machine, &results)?;
     }
     Ok(())
 }
@@ -274,13 +268,7 @@ fn run_dst(a: DstArgs) -> Result<()> {
     }
     say!("vs bvh: storage (nodes and triangle index list), node storage alone (in MiB, as the paper's Table 1 counts it), mean frame time and per-ray work over the uncompressed BVH's (52-byte inner nodes, 4-byte leaves), same run; plane tests count 6 per box and 2 per two-plane node; {} where the BVH was not measured.", dst::NONE);
     if let Some(p) = &a.json {
-        common::write_json(
-            p,
-            &Measured {
-                machine: &machine,
-                scenes: &results,
-            },
-        )?;
+        common::write_bench_json(p, &machine, &results)?;
     }
     if let Some(dir) = &a.report {
         std::fs::create_dir_all(dir).map_err(|source| raytree::error::Error::Io {
@@ -295,13 +283,7 @@ fn run_dst(a: DstArgs) -> Result<()> {
         };
         write("report.html", report::html(&results, &tables, &machine))?;
         write("dst.csv", report::csv(&results))?;
-        common::write_json(
-            &dir.join("dst.json"),
-            &Measured {
-                machine: &machine,
-                scenes: &results,
-            },
-        )?;
+        common::write_bench_json(&dir.join("dst.json"), &machine, &results)?;
         say!("report: {}", dir.join("report.html").display());
     }
     Ok(())
@@ -371,13 +353,7 @@ fn run_stackless(a: StacklessArgs) -> Result<()> {
         stackless::REFERENCE
     );
     if let Some(p) = &a.json {
-        common::write_json(
-            p,
-            &Measured {
-                machine: &machine,
-                scenes: &results,
-            },
-        )?;
+        common::write_bench_json(p, &machine, &results)?;
     }
     Ok(())
 }

@@ -3,6 +3,7 @@
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use raytree::accel::{Built, LayoutOptions, StructureInfo, StructureKind, TraversalKind};
+use raytree::bench::machine::{Machine, Measured};
 use raytree::bvh::{BuildOptions, BuildStats, Builder, Bvh};
 use raytree::error::Result;
 use raytree::prelude::Vec3;
@@ -175,6 +176,11 @@ pub fn write_json(path: &Path, value: &impl Serialize) -> Result<()> {
         use std::io::Write;
         writeln!(w)
     })
+}
+
+/// A benchmark's results as JSON beside the machine they were measured on.
+pub fn write_bench_json<T: Serialize>(path: &Path, machine: &Machine, scenes: &[T]) -> Result<()> {
+    write_json(path, &Measured { machine, scenes })
 }
 
 pub fn mib(bytes: usize) -> String {
