@@ -10,7 +10,7 @@
 mod common;
 
 use proptest::prelude::*;
-use raytree::accel::{Built, StructureKind, TraversalKind, WithAccel};
+use raytree::accel::Built;
 use raytree::prelude::*;
 use raytree::rng::Pcg32;
 use std::sync::Arc;
@@ -98,43 +98,6 @@ fn rays(tris: &[Triangle], scale: f32, seed: u64) -> Vec<Ray> {
     out
 }
 
-struct Agrees<'a> {
-    oracle: &'a BruteForce,
-    rays: &'a [Ray],
-}
-
-impl WithAccel for Agrees<'_> {
-    type Output = Result<(), String>;
-    fn run<A: Accel>(self, a: &A) -> Result<(), String> {
-        for (i, r) in self.rays.iter().enumerate() {
-            let want = self.oracle.closest_hit(r, &mut NoStats);
-            let got = a.closest_hit(r, &mut NoStats);
-            if !common::same_closest(got, want, self.oracle, r) {
-                return Err(format!("ray {i} {r:?}: closest {got:?}, oracle {want:?}"));
-            }
-            let any = a.any_hit(r, &mut NoStats);
-            if any.is_some() != want.is_some() {
-                return Err(format!("ray {i} {r:?}: any {any:?}, oracle {want:?}"));
-            }
-        }
-        Ok(())
-    }
-}
-
-/// Every structure, and for `bvh` every traversal.
-fn configurations() -> Vec<(StructureKind, TraversalKind)> {
-    let mut v: Vec<_> = TraversalKind::all()
-        .iter()
-        .map(|&t| (StructureKind::Bvh, t))
-        .collect();
-    for &s in StructureKind::all() {
-        if s != StructureKind::Bvh {
-            v.push((s, TraversalKind::Stack));
-        }
-    }
-    v
-}
-
 fn check(tris: Vec<Triangle>, scale: f32, seed: u64) -> Result<(), TestCaseError> {
     let rays = rays(&tris, scale, seed);
     let tris: Arc<[Triangle]> = tris.into();
@@ -143,10 +106,10 @@ fn check(tris: Vec<Triangle>, scale: f32, seed: u64) -> Result<(), TestCaseError
         for leaf in [1, 4] {
             let bvh = Bvh::build(&tris, &BuildOptions::new(builder).with_max_leaf_size(leaf));
             prop_assert!(bvh.validate(&tris).is_ok(), "{:?}", bvh.validate(&tris));
-            for (s, t) in configurations() {
+            for (s, t) in common::configurations() {
                 let (built, _) = Built::new(s, t, &bvh, tris.clone())
                     .map_err(|e| TestCaseError::fail(format!("{} {}: {e}", s.name(), t.name())))?;
-                let r = built.with(Agrees {
+                let r = built.with(common::Agrees {
                     oracle: &oracle,
                     rays: &rays,
                 });

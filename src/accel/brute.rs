@@ -30,6 +30,9 @@ impl Accel for BruteForce {
     }
 
     fn closest_hit<S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
+        if !ray.is_valid() {
+            return None;
+        }
         let mut best: Option<Hit> = None;
         let mut tmax = ray.tmax;
         stats.add(Tally {
@@ -48,6 +51,9 @@ impl Accel for BruteForce {
     }
 
     fn any_hit<S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
+        if !ray.is_valid() {
+            return None;
+        }
         for (k, &p) in self.live.iter().enumerate() {
             if let Some(h) = self.triangles[p as usize].hit(ray, ray.tmin, ray.tmax, p) {
                 stats.add(Tally {

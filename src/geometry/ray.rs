@@ -1,5 +1,21 @@
 use glam::Vec3;
 
+/// The largest coordinate magnitude raytree accepts for a vertex or a ray
+/// origin: 2¹²⁶ (about 8.5e37), so that the difference of two coordinates
+/// (at most 2¹²⁷) never overflows f32.
+pub const COORDINATE_LIMIT: f32 = (1u128 << 126) as f32;
+
+/// The smallest largest-component magnitude of a ray direction: 2⁻¹⁰⁰
+/// (about 7.9e-31). [`Ray::new`] reads a subnormal direction component
+/// (below 2⁻¹²⁶, whose reciprocal overflows f32) as a zero of its sign;
+/// with the largest component at least 2⁻¹⁰⁰ that turns the direction by
+/// less than 2⁻²⁶, below the 2⁻²⁴ resolution of f32 itself.
+pub const DIRECTION_MIN: f32 = 1.0 / (1u128 << 100) as f32;
+
+/// The largest component magnitude of a ray direction: 2¹²⁶, so that its
+/// reciprocal is a normal f32.
+pub const DIRECTION_MAX: f32 = COORDINATE_LIMIT;
+
 /// A ray `origin + t * direction` for `t` in `[tmin, tmax]`.
 ///
 /// The direction may have any length (it is not normalized: `t` is measured in
@@ -25,7 +41,30 @@ impl Ray {
     /// reciprocal of the same sign (`1/+0 = +inf`, `1/-0 = -inf`), so slab
     /// tests give ±inf, or NaN only for an origin exactly on the plane, which
     /// the box tests ignore (see [`crate::geometry::Aabb::intersect`]).
+    ///
+    /// A ray that is not [`Self::is_valid`] (a NaN or infinite component, an
+    /// origin beyond [`COORDINATE_LIMIT`], a direction outside
+    /// [`DIRECTION_MIN`]..=[`DIRECTION_MAX`], a NaN bound) gets the empty
+    /// interval `[+inf, -inf]` and a finite stand-in for its direction's
+    /// derived constants: every structure answers it with a miss at its root,
+    /// in constant time.
+    ///
+    /// A subnormal direction component is read as a zero of its sign (see
+    /// [`DIRECTION_MIN`]): [`Self::direction`] returns the direction traced.
     pub fn new(origin: Vec3, direction: Vec3, tmin: f32, tmax: f32) -> Self {
+        let direction = Vec3::from_array(direction.to_array().map(|c| {
+            if c.abs() < f32::MIN_POSITIVE {
+                0.0f32.copysign(c)
+            } else {
+                c
+            }
+        }));
+        if !Self::valid_parts(origin, direction, tmin, tmax) {
+            let mut ray = Self::new(Vec3::ZERO, Vec3::Z, f32::INFINITY, f32::NEG_INFINITY);
+            ray.origin = origin;
+            ray.direction = direction;
+            return ray;
+        }
         let inv_direction = Vec3::ONE / direction;
         let a = direction.abs();
         // First maximum, so that the choice is deterministic.
@@ -80,14 +119,47 @@ impl Ray {
         self.origin + self.direction * t
     }
 
-    /// Whether the ray can be traced: finite origin and direction, a non-zero
-    /// direction and an interval that is not NaN.
+    /// Whether the ray can be traced: every origin coordinate within
+    /// ±[`COORDINATE_LIMIT`], a finite direction whose largest component
+    /// magnitude lies in [`DIRECTION_MIN`]..=[`DIRECTION_MAX`], and an
+    /// interval that is not NaN. Rays that are not valid are answered with a
+    /// miss (see [`Self::new`]).
     pub fn is_valid(&self) -> bool {
-        self.origin.is_finite()
-            && self.direction.is_finite()
-            && self.direction != Vec3::ZERO
-            && !self.tmin.is_nan()
-            && !self.tmax.is_nan()
+        // [+inf, -inf] is the mark `new` leaves on a ray that is not valid.
+        Self::valid_parts(self.origin, self.direction, self.tmin, self.tmax)
+            && !(self.tmin == f32::INFINITY && self.tmax == f32::NEG_INFINITY)
+    }
+
+    /// Why a ray made of these parts is not valid, in a few words, or `None`.
+    pub fn invalid_reason(origin: Vec3, direction: Vec3, tmin: f32, tmax: f32) -> Option<String> {
+        let largest = direction.abs().max_element();
+        if !origin.is_finite() || !direction.is_finite() {
+            Some("a NaN or infinite origin or direction".into())
+        } else if origin.abs().max_element() > COORDINATE_LIMIT {
+            Some(format!(
+                "an origin coordinate beyond ±{COORDINATE_LIMIT:e} (2^126)"
+            ))
+        } else if direction == Vec3::ZERO {
+            Some("a zero direction".into())
+        } else if !(DIRECTION_MIN..=DIRECTION_MAX).contains(&largest) {
+            Some(format!(
+                "a direction whose largest component {largest:e} is outside [2^-100, 2^126]"
+            ))
+        } else if tmin.is_nan() || tmax.is_nan() {
+            Some("a NaN tmin or tmax".into())
+        } else {
+            None
+        }
+    }
+
+    fn valid_parts(origin: Vec3, direction: Vec3, tmin: f32, tmax: f32) -> bool {
+        let largest = direction.abs().max_element();
+        origin.is_finite()
+            && direction.is_finite()
+            && origin.abs().max_element() <= COORDINATE_LIMIT
+            && (DIRECTION_MIN..=DIRECTION_MAX).contains(&largest)
+            && !tmin.is_nan()
+            && !tmax.is_nan()
     }
 }
 
@@ -117,5 +189,32 @@ mod tests {
         assert!(Ray::infinite(Vec3::ONE, Vec3::X).is_valid());
         assert!(!Ray::infinite(Vec3::ONE, Vec3::ZERO).is_valid());
         assert!(!Ray::infinite(Vec3::NAN, Vec3::X).is_valid());
+        assert!(!Ray::infinite(Vec3::ONE, Vec3::new(1.0, f32::INFINITY, 0.0)).is_valid());
+        assert!(!Ray::infinite(Vec3::X * 1e38, Vec3::X).is_valid());
+        assert!(Ray::infinite(Vec3::X * 8e37, Vec3::X).is_valid());
+        assert!(!Ray::infinite(Vec3::ONE, Vec3::X * 1e-31).is_valid());
+        assert!(Ray::infinite(Vec3::ONE, Vec3::new(1e-30, 1e-45, 0.0)).is_valid());
+        // Subnormal components are read as zeros of their sign.
+        let r = Ray::infinite(Vec3::ONE, Vec3::new(1.0, 1e-39, -1e-45));
+        assert_eq!(
+            r.direction().to_array().map(f32::to_bits),
+            [1.0f32, 0.0, -0.0].map(f32::to_bits)
+        );
+        assert_eq!(r.inv_direction().y, f32::INFINITY);
+        assert!(!Ray::infinite(Vec3::ONE, Vec3::X * 1e38).is_valid());
+        assert!(!Ray::new(Vec3::ONE, Vec3::X, f32::NAN, 1.0).is_valid());
+        for (o, d) in [
+            (Vec3::NAN, Vec3::X),
+            (Vec3::ONE, Vec3::ZERO),
+            (Vec3::ONE, Vec3::NAN),
+        ] {
+            let r = Ray::infinite(o, d);
+            assert!(Ray::invalid_reason(o, d, 0.0, f32::INFINITY).is_some());
+            // The empty interval, and finite derived constants.
+            assert!(r.tmin > r.tmax);
+            assert!(!r.inv_direction().is_nan() && r.shear.is_finite());
+            assert!(r.origin().is_nan() == o.is_nan());
+        }
+        assert_eq!(Ray::invalid_reason(Vec3::ONE, Vec3::X, 0.0, 1.0), None);
     }
 }

@@ -1,6 +1,20 @@
 use super::{Aabb, Ray};
 use glam::{DVec3, Vec3};
 
+/// Below this fraction of a vertex's distance from the ray's origin, a
+/// triangle's sheared extent is tested on the precise path: f32 shearing
+/// rounds by about 2⁻²³ of that distance, an eighth of 2⁻²⁰.
+pub const ILL_CONDITIONED: f32 = 1.0 / (1u32 << 20) as f32;
+
+/// Below this distance of a triangle's vertex from the ray's origin
+/// (2⁻³², about 2.3e-10), f32 products of sheared coordinates may fall
+/// into subnormals: the precise path.
+pub const TINY_SCALE: f32 = 1.0 / (1u64 << 32) as f32;
+
+/// Below this determinant (2⁻⁹⁰, about 8e-28) `1/det` and `T` lose
+/// precision or overflow: the precise path.
+pub const TINY_DETERMINANT: f32 = 1.0 / (1u128 << 90) as f32;
+
 /// A triangle with vertices `a`, `b`, `c`.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub struct Triangle {
@@ -60,13 +74,25 @@ impl Triangle {
 
     /// The watertight test of Woop, Benthin and Wald (JCGT 2013), without
     /// backface culling, over `[tmin, tmax]` (both inclusive). Returns
-    /// `(t, u, v)`.
+    /// `(t, u, v)`; `t` is always a finite f32 (a crossing farther than f32
+    /// can say is a miss).
     ///
     /// The ray is sheared so that it runs along +z through the origin; the
     /// three 2D edge functions are computed from the sheared vertices, and
     /// redone in f64 when one is exactly zero, so their signs are exact. An
     /// edge shared by two triangles therefore gets edge functions of exactly
     /// opposite sign: no ray slips between them. No FMA is used on purpose.
+    ///
+    /// Where f32 cannot decide, the whole test is done again in
+    /// double-double arithmetic on the ray itself (`precise.rs`, also
+    /// watertight): a triangle smaller than [`ILL_CONDITIONED`] of its
+    /// distance from the ray's origin (the sheared coordinates' rounding
+    /// would exceed an eighth of its size), a configuration within
+    /// [`TINY_SCALE`] of the origin or with a determinant below
+    /// [`TINY_DETERMINANT`] (f32 products underflow), and products that
+    /// overflow f32. So every triangle that is not degenerate is hit
+    /// wherever the ray crosses its interior, at any magnitude inside
+    /// [`crate::geometry::COORDINATE_LIMIT`].
     #[inline(always)]
     pub fn intersect(&self, ray: &Ray, tmin: f32, tmax: f32) -> Option<(f32, f32, f32)> {
         // `& 3` into 4-wide arrays: the compiler sees the indices in range.
@@ -82,6 +108,19 @@ impl Triangle {
         let by = b[ky] - s.y * b[kz];
         let cx = c[kx] - s.x * c[kz];
         let cy = c[ky] - s.y * c[kz];
+        // Conditioning: the sheared coordinates carry rounding errors of
+        // about 2⁻²³ of the vertex's distance `m` from the origin; the
+        // triangle's sheared extent `e` must stand well above them. The
+        // negated comparisons send NaN to the precise path too.
+        let m = a[kx].abs().max(a[ky].abs()).max(a[kz].abs());
+        let e = (bx - ax)
+            .abs()
+            .max((by - ay).abs())
+            .max((cx - ax).abs())
+            .max((cy - ay).abs());
+        if !(e >= m * ILL_CONDITIONED && m >= TINY_SCALE) {
+            return self.intersect_precise(ray, tmin, tmax);
+        }
         let mut u = cx * by - cy * bx;
         let mut v = ax * cy - ay * cx;
         let mut w = bx * ay - by * ax;
@@ -103,11 +142,11 @@ impl Triangle {
         let bz = s.z * b[kz];
         let cz = s.z * c[kz];
         let t_scaled = u * az + v * bz + w * cz;
-        // Coordinates so large that a product overflowed f32 (an edge
-        // function, the determinant or T is inf or NaN): the whole test
-        // again in f64, where they cannot.
-        if !(det.is_finite() && t_scaled.is_finite()) {
-            return self.intersect_f64(ray, tmin, tmax);
+        // An edge function, the determinant or T overflowed f32 (inf or
+        // NaN), or the determinant is so small that 1/det loses precision
+        // or overflows: the precise path, where they cannot.
+        if !(det.abs() >= TINY_DETERMINANT && det.is_finite() && t_scaled.is_finite()) {
+            return self.intersect_precise(ray, tmin, tmax);
         }
         // Flip T by det's sign so that the comparisons need no division.
         let sign = det.to_bits() & 0x8000_0000;
@@ -120,36 +159,11 @@ impl Triangle {
         Some((t_scaled * rcp, v * rcp, w * rcp))
     }
 
-    /// [`Self::intersect`] in f64, for triangles whose f32 products
-    /// overflow (coordinates beyond about 1e12 from the ray's origin).
+    /// [`Self::intersect`] in double-double arithmetic (see `precise.rs`).
     #[cold]
     #[inline(never)]
-    fn intersect_f64(&self, ray: &Ray, tmin: f32, tmax: f32) -> Option<(f32, f32, f32)> {
-        let [kx, ky, kz] = ray.k.map(|k| k & 3);
-        let s = ray.shear.as_dvec3();
-        let o = ray.origin().as_dvec3();
-        let sheared = |p: Vec3| {
-            let p = (p.as_dvec3() - o).to_array();
-            [p[kx] - s.x * p[kz], p[ky] - s.y * p[kz], s.z * p[kz]]
-        };
-        let [ax, ay, az] = sheared(self.a);
-        let [bx, by, bz] = sheared(self.b);
-        let [cx, cy, cz] = sheared(self.c);
-        let u = cx * by - cy * bx;
-        let v = ax * cy - ay * cx;
-        let w = bx * ay - by * ax;
-        if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
-            return None;
-        }
-        let det = u + v + w;
-        if det == 0.0 || !det.is_finite() {
-            return None;
-        }
-        let t = ((u * az + v * bz + w * cz) / det) as f32;
-        if !(t >= tmin && t <= tmax) {
-            return None;
-        }
-        Some((t, (v / det) as f32, (w / det) as f32))
+    fn intersect_precise(&self, ray: &Ray, tmin: f32, tmax: f32) -> Option<(f32, f32, f32)> {
+        super::precise::intersect(self.a, self.b, self.c, ray, tmin, tmax)
     }
 
     /// [`Self::intersect`] as a [`Hit`] for triangle `prim`.

@@ -71,7 +71,7 @@ impl Mesh {
     }
 
     /// Checks what every structure assumes: at least one triangle of non-zero
-    /// area, finite coordinates, indices in range, and at most 2³¹ − 1
+    /// area, finite coordinates within ±[`crate::geometry::COORDINATE_LIMIT`], indices in range, and at most 2³¹ − 1
     /// triangles (layouts keep the sign bit of indices for themselves).
     pub fn validate(&self) -> std::result::Result<(), String> {
         if self.indices.is_empty() {
@@ -87,6 +87,18 @@ impl Mesh {
         if let Some(i) = self.positions.iter().position(|p| !p.is_finite()) {
             return Err(format!(
                 "vertex {} has a non-finite coordinate {:?}",
+                i + 1,
+                self.positions[i]
+            ));
+        }
+        let limit = crate::geometry::COORDINATE_LIMIT;
+        if let Some(i) = self
+            .positions
+            .iter()
+            .position(|p| p.abs().max_element() > limit)
+        {
+            return Err(format!(
+                "vertex {} has a coordinate beyond the limit of ±{limit:e} (2^126) {:?}",
                 i + 1,
                 self.positions[i]
             ));
@@ -128,6 +140,14 @@ mod tests {
         let mut m = quad();
         m.positions[2].y = f32::NAN;
         assert!(m.validate().unwrap_err().contains("vertex 3"));
+        let mut m = quad();
+        m.positions[1].y = 1e38;
+        assert!(m
+            .validate()
+            .unwrap_err()
+            .contains("vertex 2 has a coordinate beyond"));
+        m.positions[1].y = -8e37;
+        assert_eq!(m.validate(), Ok(()));
         let mut m = quad();
         m.indices[1][2] = 9;
         assert!(m.validate().unwrap_err().contains("vertex index 9"));

@@ -1,6 +1,7 @@
 //! Ray sets and helpers shared by the integration tests.
 #![allow(dead_code)]
 
+use raytree::accel::{StructureKind, TraversalKind, WithAccel};
 use raytree::prelude::*;
 use raytree::rng::Pcg32;
 
@@ -105,4 +106,43 @@ pub fn shared_scene(name: &str) -> Option<std::path::PathBuf> {
 /// [`BruteForce::confirms`].
 pub fn same_closest(got: Option<Hit>, want: Option<Hit>, oracle: &BruteForce, r: &Ray) -> bool {
     oracle.confirms(got, want, r)
+}
+
+/// A visitor that checks a structure's closest and any hits against the
+/// oracle on every ray.
+pub struct Agrees<'a> {
+    pub oracle: &'a BruteForce,
+    pub rays: &'a [Ray],
+}
+
+impl WithAccel for Agrees<'_> {
+    type Output = Result<(), String>;
+    fn run<A: Accel>(self, a: &A) -> Result<(), String> {
+        for (i, r) in self.rays.iter().enumerate() {
+            let want = self.oracle.closest_hit(r, &mut NoStats);
+            let got = a.closest_hit(r, &mut NoStats);
+            if !same_closest(got, want, self.oracle, r) {
+                return Err(format!("ray {i} {r:?}: closest {got:?}, oracle {want:?}"));
+            }
+            let any = a.any_hit(r, &mut NoStats);
+            if any.is_some() != want.is_some() {
+                return Err(format!("ray {i} {r:?}: any {any:?}, oracle {want:?}"));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Every structure, and for `bvh` every traversal.
+pub fn configurations() -> Vec<(StructureKind, TraversalKind)> {
+    let mut v: Vec<_> = TraversalKind::all()
+        .iter()
+        .map(|&t| (StructureKind::Bvh, t))
+        .collect();
+    for &s in StructureKind::all() {
+        if s != StructureKind::Bvh {
+            v.push((s, TraversalKind::Stack));
+        }
+    }
+    v
 }
