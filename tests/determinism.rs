@@ -37,6 +37,7 @@ fn images_are_identical_for_every_structure_traversal_and_thread_count() {
             ao_rays: 4,
             radius: 32.0,
             background: 1.0,
+            facing: false,
         }),
         Integrator::Path(PathSettings::default()),
     ];
@@ -107,6 +108,7 @@ fn an_uncounted_render_traces_the_same_rays_and_counts_only_them() {
             ao_rays: 4,
             radius: 32.0,
             background: 1.0,
+            facing: false,
         }),
         Integrator::Path(PathSettings::default()),
     ];

@@ -166,6 +166,7 @@ pub fn run_scene(scene: &Scene, opts: &Options, tick: &dyn Fn()) -> Result<Scene
             .radius
             .unwrap_or(opts.radius_fraction * scene.mesh.bounds().extent().length()),
         background: 1.0,
+        facing: false,
     };
     let sparse = Arc::new(SparseBvh::from_bvh(&bvh, scene.triangles.clone())?);
     let mut built = Vec::new();

@@ -102,6 +102,7 @@ pub struct SceneReport {
 }
 
 pub fn load_scene(args: &SceneArgs) -> Result<(Scene, SceneReport)> {
+    let _stage = Stage::new(format!("loading {}", args.scene));
     let start = std::time::Instant::now();
     let mut scene = Scene::from_spec(&args.scene)?;
     let cam = &mut scene.camera;
@@ -126,6 +127,10 @@ pub fn load_scene(args: &SceneArgs) -> Result<(Scene, SceneReport)> {
 }
 
 pub fn build_bvh(scene: &Scene, args: &SceneArgs) -> (Bvh, BuildStats) {
+    let _stage = Stage::new(format!(
+        "building the BVH over {} triangles",
+        scene.triangles.len()
+    ));
     let builder = match args.builder {
         BuilderArg::Sah => Builder::Sah,
         BuilderArg::Hybrid => Builder::Hybrid,
@@ -146,10 +151,35 @@ pub fn build_structure(
     bvh: &Bvh,
     s: &StructureArgs,
 ) -> Result<(Built, StructureInfo)> {
+    let _stage = Stage::new(format!("converting the BVH to {}", s.accel.name()));
     let opts = LayoutOptions {
         implicit_reservation_limit: (s.implicit_limit * (1u64 << 30) as f64) as u64,
     };
     Built::with_options(s.accel, s.traversal, bvh, scene.triangles.clone(), &opts)
+}
+
+/// A step without a count (loading, building, converting) shown as a
+/// spinner with its elapsed time on stderr while it lasts, drawn only when
+/// stderr is a terminal; cleared when dropped.
+pub struct Stage(ProgressBar);
+
+impl Stage {
+    pub fn new(what: String) -> Stage {
+        let bar = ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr());
+        bar.set_style(
+            ProgressStyle::with_template("{spinner} {msg} {elapsed_precise}")
+                .expect("valid template"),
+        );
+        bar.set_message(what);
+        bar.enable_steady_tick(std::time::Duration::from_millis(100));
+        Stage(bar)
+    }
+}
+
+impl Drop for Stage {
+    fn drop(&mut self) {
+        self.0.finish_and_clear();
+    }
 }
 
 /// A progress bar on stderr, drawn only when stderr is a terminal.

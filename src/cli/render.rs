@@ -191,9 +191,19 @@ fn run_in_pool(args: &RenderArgs) -> Result<()> {
             let radius = args
                 .ao_radius
                 .unwrap_or(AoSettings::RADIUS_FRACTION * diagonal);
+            // A user's mesh (a file, not a built-in scene) gets the preview
+            // settings unless --paper asks for the paper's: its silhouette
+            // against a dark background and its shape by facing ratio.
+            let file = raytree::scene::procedural::BUILTIN
+                .iter()
+                .all(|b| scene.name.split(':').next() != Some(b.name));
             let mut s = AoSettings::paper(radius);
             if !args.paper {
-                (s.eye_rays, s.ao_rays) = (4, 8);
+                if file {
+                    s = AoSettings::preview(radius);
+                } else {
+                    (s.eye_rays, s.ao_rays) = (4, 8);
+                }
             }
             s.eye_rays = args.eye_rays.unwrap_or(s.eye_rays);
             s.ao_rays = args.ao_rays.unwrap_or(s.ao_rays);

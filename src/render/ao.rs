@@ -21,6 +21,12 @@ pub struct AoSettings {
     pub radius: f32,
     /// Value of a pixel sample whose eye ray misses the scene.
     pub background: f32,
+    /// Whether each sample's AO is weighted by how squarely the surface
+    /// faces the eye (`0.25 + 0.75·|cos θ|`, θ between the eye ray and the
+    /// normal), so that a single convex object, which AO alone leaves flat,
+    /// shows its shape. Off in the paper's settings.
+    #[serde(default)]
+    pub facing: bool,
 }
 
 impl AoSettings {
@@ -32,6 +38,21 @@ impl AoSettings {
             ao_rays: 16,
             radius,
             background: 1.0,
+            facing: false,
+        }
+    }
+
+    /// Settings for a first look at a user's mesh: `radius`, 4 eye rays and
+    /// 8 AO rays, a dark grey background (0.2) against which the silhouette
+    /// stands out, and facing-ratio shading that shows the shape of convex
+    /// parts.
+    pub fn preview(radius: f32) -> Self {
+        AoSettings {
+            eye_rays: 4,
+            ao_rays: 8,
+            radius,
+            background: 0.2,
+            facing: true,
         }
     }
 
@@ -45,6 +66,8 @@ impl AoSettings {
 /// occlusion rays go on drawing from.
 pub(super) struct EyeSample {
     pub hit: Option<(Vec3, Vec3)>,
+    /// `|cos θ|` between the eye ray and the normal at the hit.
+    pub facing: f32,
     pub rng: Pcg32,
 }
 
@@ -62,11 +85,13 @@ pub(super) fn eye_sample<A: Accel, S: RaySink>(
     let mut rng = Pcg32::new(pixel, sample as u64);
     let ray = eye_ray(ctx.scene, x, y, ctx.width, ctx.height, &mut rng);
     stats.ray();
+    let mut facing = 0.0;
     let hit = accel.closest_hit(&ray, stats).map(|hit| {
         let n = facing_normal(ctx.scene, &ray, &hit);
+        facing = n.dot(ray.direction().normalize()).abs();
         (offset_origin(ray.at(hit.t), n), n)
     });
-    EyeSample { hit, rng }
+    EyeSample { hit, facing, rng }
 }
 
 /// The sample's value: the unoccluded fraction of its AO rays, or the
@@ -92,7 +117,12 @@ pub(super) fn ao_value<A: Accel, S: RaySink>(
             open += 1;
         }
     }
-    open as f32 / s.ao_rays.max(1) as f32
+    let ao = open as f32 / s.ao_rays.max(1) as f32;
+    if s.facing {
+        ao * (0.25 + 0.75 * e.facing)
+    } else {
+        ao
+    }
 }
 
 pub(super) fn pixel<A: Accel, S: RaySink>(

@@ -159,6 +159,7 @@ mod tests {
             ao_rays,
             radius: 30.0,
             background: 1.0,
+            facing: false,
         };
         (scene, b, s)
     }
