@@ -72,7 +72,8 @@ pub struct RenderArgs {
     /// Also write heat maps of the work per pixel (all its rays), comma-
     /// separated: nodes, planes, triangles; each to OUT's name with
     /// "-nodes" (etc.) before the extension, as PNG with the colour scale
-    /// (0 to the 99.5th percentile of the pixels' counts) beneath.
+    /// (0 to the 99.5th percentile of the pixels' counts) beneath, labelled
+    /// with 0, its middle and its top and the measure's name.
     #[arg(long, value_enum, value_delimiter = ',')]
     heatmap: Vec<Measure>,
     /// The count drawn white in every heat map, instead of the 99.5th
