@@ -37,8 +37,10 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
     let mut rest = body;
     let mut line = header_lines;
     for (name, def) in header.elements.iter() {
-        let mut elements = Vec::with_capacity(def.count.min(rest.len()));
-        let mut starts = Vec::with_capacity(def.count.min(rest.len()));
+        // A header's count is not trusted with memory before the data is read.
+        let reserve = def.count.min(rest.len()).min(1 << 16);
+        let mut elements = Vec::with_capacity(reserve);
+        let mut starts = Vec::with_capacity(reserve);
         for i in 0..def.count {
             let offset = bytes.len() - rest.len();
             if rest.is_empty() {
