@@ -163,3 +163,81 @@ fn obj_with_polygons_fans_in_file_order() {
     );
     assert_eq!(t[2].c, Vec3::Z);
 }
+
+fn load_ok(name: &str, text: &str) -> Scene {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join(name);
+    std::fs::write(&path, text).unwrap();
+    Scene::load(&path).unwrap()
+}
+
+const QUAD: &str = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n";
+
+#[test]
+fn obj_lines_points_and_curves_make_no_triangles() {
+    // A quad face, then a closed polyline over other vertices, points and a
+    // curve: the quad's two triangles only.
+    let extras = "l 5 6 7 8 5\nl 1 2\np 5 6 7\ncstype bspline\ndeg 3\ncurv 0 1 5 6 7 8\nparm u 0 0 0 0 1 1 1 1\nend\nsurf 0 1 0 1 5 6 7 8\nend\n";
+    let face = "f 1 2 3 4\n";
+    let want = [
+        [Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0)],
+        [Vec3::ZERO, Vec3::new(1.0, 1.0, 0.0), Vec3::Y],
+    ];
+    for text in [
+        format!("{QUAD}{face}{extras}"),
+        format!("{QUAD}{extras}{face}"),
+    ] {
+        let s = load_ok("wire.obj", &text);
+        let got: Vec<[Vec3; 3]> = s.triangles.iter().map(|t| [t.a, t.b, t.c]).collect();
+        assert_eq!(got, want, "{text}");
+        assert_eq!(s.mesh.indices, vec![[0, 1, 2], [0, 2, 3]]);
+    }
+}
+
+#[test]
+fn obj_end_of_line_comments_are_accepted() {
+    let s = load_ok(
+        "comments.obj",
+        "v 0 0 0 # corner\nv 1 0 0#x\nv 0 1 0\t# y\nvn 0 0 1 # up\nf 1//1 2//1 3//1 # tri\n",
+    );
+    assert_eq!(s.mesh.indices, vec![[0, 1, 2]]);
+    assert_eq!(s.mesh.positions, vec![Vec3::ZERO, Vec3::X, Vec3::Y]);
+}
+
+#[test]
+fn obj_every_refusal_names_file_and_line() {
+    let head = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\n";
+    for (bad, why) in [
+        ("f 1//1 2//1 3//2", "normal 2"),
+        ("f 1/2 2/1 3/1", "texture coordinate 2"),
+        ("f 1 2 4", "vertex 4"),
+        ("f 1 2 -4", "vertex -4"),
+        ("f 1 2 x", "malformed face vertex 'x'"),
+        ("f 1/1/1/1 2 3", "malformed face vertex"),
+        ("v 1 2 3 4 five", "'five' is not a number"),
+        ("v 1 2", "at least 3 numbers"),
+        ("v 1 2 3 0", "weight"),
+        ("vn 0 1", "malformed normal"),
+        ("vt u", "malformed texture coordinate"),
+    ] {
+        let text = format!("{head}# a comment\n{bad} # the culprit\nf 1 2 3\n");
+        let msg = load("where.obj", text.as_bytes());
+        assert!(
+            msg.contains("where.obj:7: ") && msg.contains(why),
+            "{bad}: {msg}"
+        );
+    }
+}
+
+#[test]
+fn obj_faces_with_fewer_than_3_vertices_are_refused() {
+    for (bad, n) in [("f 5", 1), ("f 1 2", 2), ("f", 0), ("f 1/1", 1)] {
+        let text = format!("{QUAD}vt 0 0\nf 1 2 3\n{bad}\nf 1 3 4\n");
+        let msg = load("short.obj", text.as_bytes());
+        assert!(
+            msg.contains("short.obj:11: ")
+                && msg.contains(&format!("at least 3 vertices, this one has {n}")),
+            "{bad}: {msg}"
+        );
+    }
+}

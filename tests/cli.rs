@@ -649,7 +649,10 @@ fn a_scene_too_big_for_memory_is_refused_before_it_is_built() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(err.trim().lines().count(), 1, "{err}");
     assert!(
-        err.contains("chess:64000") && err.contains("GiB") && err.contains("smaller scene"),
+        err.contains("chess:64000")
+            && err.contains("need about 11.0 MiB")
+            && err.contains("only 976.6 KiB")
+            && err.contains("smaller scene"),
         "{err}"
     );
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
@@ -714,4 +717,255 @@ fn an_unwritable_stdout_fails_the_command() {
     assert_eq!(out.status.code(), Some(1), "{err}");
     assert_eq!(err.trim_end().lines().count(), 1, "{err}");
     assert!(err.contains("cannot write to standard output"), "{err}");
+}
+
+#[test]
+fn a_bad_memory_limit_is_an_error_naming_it() {
+    for bad in ["abc", "-1", "0", "12 apples"] {
+        let dir = tempfile::tempdir().unwrap();
+        let out = Command::new(env!("CARGO_BIN_EXE_raytree"))
+            .args(["info", "-s", "chess:2000"])
+            .env(raytree::scene::memory::LIMIT_VARIABLE, bad)
+            .current_dir(dir.path())
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{bad}: {err}");
+        assert_eq!(err.trim().lines().count(), 1, "{err}");
+        assert!(
+            err.contains(&format!(
+                "RAYTREE_MEMORY_LIMIT='{bad}' is not a memory size"
+            )),
+            "{err}"
+        );
+        // Refused before any work: nothing on stdout.
+        assert!(out.stdout.is_empty());
+    }
+    // A unit is understood.
+    let dir = tempfile::tempdir().unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_raytree"))
+        .args(["info", "-s", "chess:2000"])
+        .env(raytree::scene::memory::LIMIT_VARIABLE, "4G")
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    ok(&out);
+}
+
+fn render_to(name: &str, dir: &Path) -> Output {
+    raytree(
+        &[
+            "render",
+            "-s",
+            "chess:2000",
+            "--width",
+            "24",
+            "--height",
+            "16",
+            "-q",
+            "-o",
+            name,
+        ],
+        dir,
+    )
+}
+
+#[test]
+fn the_output_extension_chooses_the_image_format() {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, magic) in [
+        ("a.png", &b"\x89PNG\r\n"[..]),
+        ("a.jpg", &b"\xff\xd8\xff"[..]),
+        ("a.JPEG", &b"\xff\xd8\xff"[..]),
+        ("a.ppm", &b"P6\n24 16\n255\n"[..]),
+        ("a.exr", &b"\x76\x2f\x31\x01"[..]),
+    ] {
+        ok(&render_to(name, dir.path()));
+        let bytes = std::fs::read(dir.path().join(name)).unwrap();
+        assert!(bytes.starts_with(magic), "{name}: {:x?}", &bytes[..8]);
+    }
+    let png = image::open(dir.path().join("a.png")).unwrap().to_luma8();
+    let jpg = image::open(dir.path().join("a.jpg")).unwrap().to_luma8();
+    assert_eq!(jpg.dimensions(), (24, 16));
+    // The JPEG is the same picture, up to its compression.
+    let diff: f64 = png
+        .pixels()
+        .zip(jpg.pixels())
+        .map(|(a, b)| (a.0[0] as f64 - b.0[0] as f64).abs())
+        .sum::<f64>()
+        / (24.0 * 16.0);
+    assert!(diff < 8.0, "mean difference {diff}");
+    // Unknown or missing extensions are refused before any work, leaving
+    // nothing behind.
+    fails(
+        &["render", "-o", "x.gif"],
+        1,
+        "x.gif: unknown image format '.gif'",
+    );
+    fails(&["render", "-o", "x"], 1, "x: no extension");
+    fails(
+        &[
+            "render",
+            "-s",
+            "chess:2000",
+            "--heatmap",
+            "nodes",
+            "-o",
+            "x.tiff",
+        ],
+        1,
+        ".png, .jpg (or .jpeg), .ppm or .exr",
+    );
+}
+
+#[test]
+fn output_dash_is_png_on_standard_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = render_to("-", dir.path());
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(out.stdout.starts_with(b"\x89PNG\r\n"));
+    let png = image::load_from_memory(&out.stdout).unwrap();
+    assert_eq!((png.width(), png.height()), (24, 16));
+    // The report went to stderr; no file named "-".
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("wrote      standard output (PNG)"), "{err}");
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+    // The same picture as a file.
+    ok(&render_to("b.png", dir.path()));
+    assert_eq!(
+        image::open(dir.path().join("b.png")).unwrap().to_luma8(),
+        png.to_luma8()
+    );
+}
+
+#[test]
+fn each_command_takes_only_the_options_it_uses() {
+    for cmd in ["info", "trace"] {
+        for opt in ["--eye", "--look-at", "--up"] {
+            fails(
+                &[cmd, opt, "1,2,3"],
+                2,
+                &format!("unexpected argument '{opt}'"),
+            );
+        }
+        fails(&[cmd, "--fov", "40"], 2, "unexpected argument '--fov'");
+    }
+    fails(
+        &["render", "--up", "0,0,0"],
+        2,
+        "the up direction must not be zero",
+    );
+    fails(&["render", "--up", "0,1"], 2, "--up");
+    fails(&["bench", "dst", "--up", "0,-0,0"], 2, "must not be zero");
+    // --up turns the picture: with up = -y, it is the default upside down.
+    let dir = tempfile::tempdir().unwrap();
+    let args = |up: &str, name: &str| {
+        let mut a = vec![
+            "render",
+            "-s",
+            "chess:2000",
+            "--width",
+            "24",
+            "--height",
+            "16",
+            "-q",
+            "-i",
+            "path",
+            "--eye",
+            "300,100,300",
+            "--look-at",
+            "0,10,0",
+            "-o",
+        ];
+        a.push(name);
+        if !up.is_empty() {
+            a.extend(["--up", up]);
+        }
+        a.iter().map(|s| s.to_string()).collect::<Vec<_>>()
+    };
+    for (up, name) in [("", "a.png"), ("0,-1,0", "b.png"), ("0,2,0", "c.png")] {
+        let a = args(up, name);
+        ok(&raytree(
+            &a.iter().map(|s| s.as_str()).collect::<Vec<_>>(),
+            dir.path(),
+        ));
+    }
+    let a = image::open(dir.path().join("a.png")).unwrap().to_luma8();
+    let b = image::open(dir.path().join("b.png")).unwrap().to_luma8();
+    let c = image::open(dir.path().join("c.png")).unwrap().to_luma8();
+    assert_eq!(a, c, "a longer up vector is the same camera");
+    assert_ne!(a, b, "--up was not applied");
+}
+
+#[test]
+fn negative_numbers_get_a_message_about_the_value() {
+    fails(
+        &["render", "--width", "-5"],
+        2,
+        "invalid value '-5' for '--width <WIDTH>': -5 is not in 1..=16384",
+    );
+    fails(&["render", "--height", "-1"], 2, "-1 is not in 1..=16384");
+    fails(&["render", "--threads", "-2"], 2, "-2 is not in 1..=1024");
+    fails(
+        &["render", "--fov", "-30"],
+        2,
+        "-30 is not an angle in (0, 180) degrees",
+    );
+    fails(&["render", "--max-leaf", "-8"], 2, "-8 is not in 1..=255");
+    fails(
+        &["render", "--implicit-limit", "-1"],
+        2,
+        "'-1' is not a positive number of GiB",
+    );
+    fails(
+        &["render", "--samples", "-1.5"],
+        2,
+        "invalid value '-1.5' for '--samples",
+    );
+    fails(
+        &["trace", "--threads", "-3", "--rays", "r", "-o", "h"],
+        2,
+        "-3 is not in 1..=1024",
+    );
+    fails(
+        &["bench", "dst", "--frames", "-1"],
+        2,
+        "-1 is not in 1..=10000",
+    );
+    fails(
+        &["bench", "peers", "--width", "-7"],
+        2,
+        "-7 is not in 1..=16384",
+    );
+    // Checked after parsing: still about the value.
+    fails(
+        &["render", "--ao-radius", "-1", "-s", "chess:2000"],
+        1,
+        "--ao-radius -1: must be a positive number",
+    );
+    // Negative coordinates are values, not flags.
+    let dir = tempfile::tempdir().unwrap();
+    ok(&raytree(
+        &[
+            "render",
+            "-s",
+            "chess:2000",
+            "--width",
+            "8",
+            "--height",
+            "8",
+            "-q",
+            "--eye",
+            "-300,100,-300",
+            "--look-at",
+            "-1,-2,-3",
+            "-o",
+            "n.png",
+        ],
+        dir.path(),
+    ));
 }

@@ -10,7 +10,6 @@ use raytree::bench::svg::{stacked_bars, Bar};
 use raytree::bench::{dst, peers, report};
 use raytree::bvh::{BuildOptions, Builder};
 use raytree::error::Result;
-use raytree::prelude::Vec3;
 use raytree::render::AoSettings;
 use raytree::scene::Scene;
 use std::path::PathBuf;
@@ -103,15 +102,9 @@ pub struct DstArgs {
     /// No progress bar.
     #[arg(long, short = 'q')]
     quiet: bool,
-    /// Camera position "x,y,z" for every scene [default: each scene's own].
-    #[arg(long, value_parser = common::parse_vec3)]
-    eye: Option<Vec3>,
-    /// Point the camera looks at, "x,y,z".
-    #[arg(long, value_parser = common::parse_vec3)]
-    look_at: Option<Vec3>,
-    /// Vertical field of view in degrees.
-    #[arg(long, value_parser = common::parse_fov)]
-    fov: Option<f32>,
+    /// The camera of every scene [default: each scene's own].
+    #[command(flatten)]
+    camera: common::CameraArgs,
 }
 
 #[derive(Args, Debug)]
@@ -147,15 +140,9 @@ pub struct StacklessArgs {
     /// No progress bar.
     #[arg(long, short = 'q')]
     quiet: bool,
-    /// Camera position "x,y,z" for every scene [default: each scene's own].
-    #[arg(long, value_parser = common::parse_vec3)]
-    eye: Option<Vec3>,
-    /// Point the camera looks at, "x,y,z".
-    #[arg(long, value_parser = common::parse_vec3)]
-    look_at: Option<Vec3>,
-    /// Vertical field of view in degrees.
-    #[arg(long, value_parser = common::parse_fov)]
-    fov: Option<f32>,
+    /// The camera of every scene [default: each scene's own].
+    #[command(flatten)]
+    camera: common::CameraArgs,
     /// AO ray length in scene units [default: 0.045 × each scene's diagonal].
     #[arg(long)]
     ao_radius: Option<f32>,
@@ -252,10 +239,7 @@ fn run_dst(a: DstArgs) -> Result<()> {
     for spec in &scenes {
         bar.set_message(format!("bench dst: {spec}"));
         let mut scene = Scene::from_spec(spec)?;
-        let cam = &mut scene.camera;
-        cam.eye = a.eye.unwrap_or(cam.eye);
-        cam.target = a.look_at.unwrap_or(cam.target);
-        cam.fov_y = a.fov.unwrap_or(cam.fov_y);
+        a.camera.apply(&mut scene.camera)?;
         let r = pool.install(|| dst::run_scene(&scene, &opts, &|| bar.inc(1)))?;
         let md = dst::markdown(&r);
         bar.suspend(|| say!("{md}"));
@@ -336,10 +320,7 @@ fn run_stackless(a: StacklessArgs) -> Result<()> {
     for spec in &scenes {
         bar.set_message(format!("bench stackless: {spec}"));
         let mut scene = Scene::from_spec(spec)?;
-        let cam = &mut scene.camera;
-        cam.eye = a.eye.unwrap_or(cam.eye);
-        cam.target = a.look_at.unwrap_or(cam.target);
-        cam.fov_y = a.fov.unwrap_or(cam.fov_y);
+        a.camera.apply(&mut scene.camera)?;
         let r = stackless::run_scene(&scene, &opts, &|| bar.inc(1))?;
         bar.suspend(|| say!("{}", stackless::markdown(&r)));
         if let Some(dir) = &a.charts {

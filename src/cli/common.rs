@@ -7,7 +7,7 @@ use raytree::bench::machine::{Machine, Measured};
 use raytree::bvh::{BuildOptions, BuildStats, Builder, Bvh};
 use raytree::error::Result;
 use raytree::prelude::Vec3;
-use raytree::scene::Scene;
+use raytree::scene::{Camera, Scene};
 use serde::Serialize;
 use std::path::Path;
 
@@ -25,16 +25,41 @@ pub struct SceneArgs {
     /// Most triangles in a BVH leaf (1 to 255).
     #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u16).range(1..=255))]
     pub max_leaf: u16,
+}
+
+/// The camera, for the commands that render.
+#[derive(Args, Clone, Debug)]
+pub struct CameraArgs {
     /// Camera position "x,y,z" in scene units [default: the scene's camera;
     /// a file's camera frames its bounds].
-    #[arg(long, value_parser = parse_vec3)]
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     pub eye: Option<Vec3>,
     /// Point the camera looks at, "x,y,z".
-    #[arg(long, value_parser = parse_vec3)]
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     pub look_at: Option<Vec3>,
+    /// The camera's up direction "x,y,z", not zero [default: the scene's,
+    /// +y for files].
+    #[arg(long, value_parser = parse_up, allow_hyphen_values = true)]
+    pub up: Option<Vec3>,
     /// Vertical field of view in degrees.
     #[arg(long, value_parser = parse_fov)]
     pub fov: Option<f32>,
+}
+
+impl CameraArgs {
+    /// Sets the options given on `cam`.
+    pub fn apply(&self, cam: &mut Camera) -> Result<()> {
+        cam.eye = self.eye.unwrap_or(cam.eye);
+        cam.target = self.look_at.unwrap_or(cam.target);
+        cam.up = self.up.unwrap_or(cam.up);
+        cam.fov_y = self.fov.unwrap_or(cam.fov_y);
+        if cam.eye == cam.target {
+            return Err(raytree::error::Error::Invalid(
+                "--eye and --look-at are the same point".into(),
+            ));
+        }
+        Ok(())
+    }
 }
 
 pub fn parse_vec3(s: &str) -> std::result::Result<Vec3, String> {
@@ -47,6 +72,16 @@ pub fn parse_vec3(s: &str) -> std::result::Result<Vec3, String> {
         _ => Err(format!(
             "expected three finite numbers \"x,y,z\", got '{s}'"
         )),
+    }
+}
+
+/// A vector "x,y,z" that is not zero.
+pub fn parse_up(s: &str) -> std::result::Result<Vec3, String> {
+    let v = parse_vec3(s)?;
+    if v == Vec3::ZERO {
+        Err("the up direction must not be zero".into())
+    } else {
+        Ok(v)
     }
 }
 
@@ -104,16 +139,7 @@ pub struct SceneReport {
 pub fn load_scene(args: &SceneArgs) -> Result<(Scene, SceneReport)> {
     let _stage = Stage::new(format!("loading {}", args.scene));
     let start = std::time::Instant::now();
-    let mut scene = Scene::from_spec(&args.scene)?;
-    let cam = &mut scene.camera;
-    cam.eye = args.eye.unwrap_or(cam.eye);
-    cam.target = args.look_at.unwrap_or(cam.target);
-    cam.fov_y = args.fov.unwrap_or(cam.fov_y);
-    if cam.eye == cam.target {
-        return Err(raytree::error::Error::Invalid(
-            "--eye and --look-at are the same point".into(),
-        ));
-    }
+    let scene = Scene::from_spec(&args.scene)?;
     let b = scene.mesh.bounds();
     let report = SceneReport {
         scene: scene.name.clone(),

@@ -9,7 +9,7 @@ mod out;
 mod render;
 mod trace;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::process::ExitCode;
 
 /// Ray-tracing acceleration structures: build, trace, compare and measure
@@ -23,7 +23,8 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Render a scene with ambient occlusion or path tracing to PNG (or PPM).
+    /// Render a scene with ambient occlusion or path tracing to PNG (or
+    /// JPEG, PPM, EXR).
     Render(render::RenderArgs),
     /// Trace a file of rays through a structure and write the hits.
     Trace(trace::TraceArgs),
@@ -34,20 +35,40 @@ enum Command {
     Bench(bench::BenchCommand),
 }
 
+/// Every option that takes a value takes a negative number as its value,
+/// so that its parser says what is wrong with it (`--width -5`: "-5 is not
+/// in 1..=16384") rather than clap taking it for an unknown flag.
+fn negative_numbers_are_values(cmd: clap::Command) -> clap::Command {
+    cmd.mut_args(|a| {
+        if a.get_action().takes_values() && !a.is_positional() {
+            a.allow_negative_numbers(true)
+        } else {
+            a
+        }
+    })
+    .mut_subcommands(negative_numbers_are_values)
+}
+
+fn parse_cli() -> Cli {
+    let matches = negative_numbers_are_values(Cli::command()).get_matches();
+    Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit())
+}
+
 pub fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = parse_cli();
     // Without a handler, Ctrl-C would leave a half-written temporary file.
     let _ = ctrlc::set_handler(|| {
         raytree::render::remove_unfinished_files();
         eprintln!("raytree: interrupted; unfinished output files removed");
         std::process::exit(130);
     });
-    let result = match cli.command {
+    // A bad memory limit is refused before any work.
+    let result = raytree::scene::memory::available_bytes().and_then(|_| match cli.command {
         Command::Render(a) => render::run(a),
         Command::Trace(a) => trace::run(a),
         Command::Info(a) => info::run(a),
         Command::Bench(c) => bench::run(c),
-    };
+    });
     match result {
         // Its line is already on stderr.
         Ok(()) if out::failed() => ExitCode::FAILURE,

@@ -9,6 +9,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 /// The reader of standard output has gone.
 static CLOSED: AtomicBool = AtomicBool::new(false);
+/// The report goes to standard error: standard output carries the data.
+static TO_STDERR: AtomicBool = AtomicBool::new(false);
 /// Writing to standard output failed otherwise (a full disk, say).
 static FAILED: AtomicBool = AtomicBool::new(false);
 
@@ -26,6 +28,10 @@ pub(crate) use say;
 /// Writes `args` and a line break, unless standard output can no longer be
 /// written.
 pub fn line(args: std::fmt::Arguments) {
+    if TO_STDERR.load(Ordering::Relaxed) {
+        eprintln!("{args}");
+        return;
+    }
     if CLOSED.load(Ordering::Relaxed) || FAILED.load(Ordering::Relaxed) {
         return;
     }
@@ -38,6 +44,12 @@ pub fn line(args: std::fmt::Arguments) {
             eprintln!("raytree: error: cannot write to standard output: {e}");
         }
     }
+}
+
+/// Sends what [`say!`] prints to standard error from now on: for a command
+/// that writes its output file to standard output (`-o -`).
+pub fn report_to_stderr() {
+    TO_STDERR.store(true, Ordering::Relaxed);
 }
 
 /// Whether a write to standard output failed for a reason other than a

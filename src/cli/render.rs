@@ -1,6 +1,6 @@
 //! `raytree render`.
 
-use super::common::{self, SceneArgs, SceneReport, StructureArgs};
+use super::common::{self, CameraArgs, SceneArgs, SceneReport, StructureArgs};
 use super::out::say;
 use clap::{Args, ValueEnum};
 use raytree::accel::{Accel, StructureInfo, WithAccel};
@@ -18,6 +18,8 @@ use std::path::PathBuf;
 pub struct RenderArgs {
     #[command(flatten)]
     scene: SceneArgs,
+    #[command(flatten)]
+    camera: CameraArgs,
     #[command(flatten)]
     structure: StructureArgs,
     /// Integrator: ambient occlusion (any-hit AO rays) or diffuse path tracing.
@@ -52,7 +54,10 @@ pub struct RenderArgs {
     /// Path: diffuse bounces after the eye ray (no Russian roulette).
     #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(0..=64))]
     bounces: u32,
-    /// Output image: .png (8-bit grey, sRGB) or .ppm (binary P6).
+    /// Output image, its format chosen by the extension: .png (8-bit grey,
+    /// sRGB), .jpg or .jpeg (the same, JPEG quality 95), .ppm (binary P6)
+    /// or .exr (linear 32-bit float). "-" writes PNG to standard output,
+    /// and the report then goes to standard error.
     #[arg(long, short = 'o', default_value = "raytree.png")]
     out: PathBuf,
     /// Worker threads [default: all cores].
@@ -67,7 +72,8 @@ pub struct RenderArgs {
     /// Also write heat maps of the work per pixel (all its rays), comma-
     /// separated: nodes, planes, triangles; each to OUT's name with
     /// "-nodes" (etc.) before the extension, as PNG with the colour scale
-    /// (0 to the 99.5th percentile of the pixels' counts) beneath.
+    /// (0 to the 99.5th percentile of the pixels' counts) beneath, labelled
+    /// with 0, its middle and its top and the measure's name.
     #[arg(long, value_enum, value_delimiter = ',')]
     heatmap: Vec<Measure>,
     /// The count drawn white in every heat map, instead of the 99.5th
@@ -115,8 +121,12 @@ struct Heatmap {
     file: PathBuf,
 }
 
-/// `out` with `-suffix` before its extension, as PNG.
+/// `out` with `-suffix` before its extension, as PNG (`raytree-suffix.png`
+/// when `out` is standard output).
 fn beside(out: &std::path::Path, suffix: &str) -> PathBuf {
+    if render::is_stdout(out) {
+        return PathBuf::from(format!("raytree-{suffix}.png"));
+    }
     let stem = out
         .file_stem()
         .map_or("raytree".into(), |s| s.to_string_lossy());
@@ -151,6 +161,11 @@ impl WithAccel for RenderWith<'_> {
 
 pub fn run(args: RenderArgs) -> Result<()> {
     common::check_structure(&args.structure)?;
+    // Before any work: an output name whose format is unknown.
+    render::ImageFormat::of(&args.out)?;
+    if render::is_stdout(&args.out) {
+        super::out::report_to_stderr();
+    }
     if let Some(r) = args.ao_radius {
         if !(r.is_finite() && r > 0.0) {
             return Err(Error::Invalid(format!(
@@ -169,7 +184,8 @@ pub fn run(args: RenderArgs) -> Result<()> {
 }
 
 fn run_in_pool(args: &RenderArgs) -> Result<()> {
-    let (scene, scene_report) = common::load_scene(&args.scene)?;
+    let (mut scene, scene_report) = common::load_scene(&args.scene)?;
+    args.camera.apply(&mut scene.camera)?;
     let (bvh, bvh_stats) = common::build_bvh(&scene, &args.scene);
     let (built, info) = common::build_structure(&scene, &bvh, &args.structure)?;
     drop(bvh);
@@ -314,7 +330,11 @@ fn print_report(r: &RenderReport) {
         r.per_ray.planes,
         r.per_ray.triangles
     );
-    say!("wrote      {}", r.image.display());
+    if render::is_stdout(&r.image) {
+        say!("wrote      standard output (PNG)");
+    } else {
+        say!("wrote      {}", r.image.display());
+    }
     for h in &r.heatmaps {
         say!(
             "heat map   {} per pixel: mean {:.1}, largest {}; scale 0 (dark) to {} (white): {}",

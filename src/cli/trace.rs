@@ -26,7 +26,9 @@ pub struct TraceArgs {
     #[arg(long)]
     rays: PathBuf,
     /// Hit file: 16 bytes per ray, f32 t (+inf on a miss), u32 triangle
-    /// (0xFFFFFFFF on a miss), f32 u, v; or CSV with --format csv.
+    /// (0xFFFFFFFF on a miss), f32 u, v; or CSV with --format csv. "-"
+    /// writes them to standard output, and the report then goes to
+    /// standard error.
     #[arg(long, short = 'o')]
     out: PathBuf,
     /// Any hit instead of the closest: t is some hit's distance in [tmin, tmax].
@@ -115,6 +117,9 @@ impl WithAccel for TraceWith<'_> {
 
 pub fn run(args: TraceArgs) -> Result<()> {
     common::check_structure(&args.structure)?;
+    if raytree::render::is_stdout(&args.out) {
+        super::out::report_to_stderr();
+    }
     let rays = rayfile::read_rays(&args.rays)?;
     let go = || -> Result<()> {
         let (scene, scene_report) = common::load_scene(&args.scene)?;
@@ -125,17 +130,20 @@ pub fn run(args: TraceArgs) -> Result<()> {
             rays: &rays,
             any: args.any_hit,
         });
-        match args.format {
-            Format::Bin => {
-                let bytes = rayfile::encode_hits(&hits);
-                raytree::render::write_atomically(&args.out, |w| {
-                    use std::io::Write;
-                    w.write_all(&bytes)
-                })?
-            }
-            Format::Csv => {
-                raytree::render::write_atomically(&args.out, |w| rayfile::write_hits_csv(w, &hits))?
-            }
+        let write = |w: &mut dyn std::io::Write| match args.format {
+            Format::Bin => w.write_all(&rayfile::encode_hits(&hits)),
+            Format::Csv => rayfile::write_hits_csv(&mut &mut *w, &hits),
+        };
+        if raytree::render::is_stdout(&args.out) {
+            let mut out = std::io::stdout().lock();
+            write(&mut out)
+                .and_then(|()| std::io::Write::flush(&mut out))
+                .map_err(|source| raytree::error::Error::Io {
+                    path: "standard output".into(),
+                    source,
+                })?;
+        } else {
+            raytree::render::write_atomically(&args.out, |w| write(w))?;
         }
         let report = TraceReport {
             scene: scene_report,

@@ -1,10 +1,63 @@
-//! A grey-scale image of linear values, written as 8-bit sRGB PNG or PPM.
-//! Files are written under a temporary name and renamed, so an error or an
-//! interrupt never leaves a partial file.
+//! A grey-scale image of linear values, written as 8-bit sRGB PNG, JPEG or
+//! PPM, or as linear 32-bit float OpenEXR, the format chosen by the file's
+//! extension. Files are written under a temporary name and renamed, so an
+//! error or an interrupt never leaves a partial file; the path `-` writes
+//! PNG to standard output.
 
 use crate::error::{Error, Result};
-use std::io::Write;
+use std::io::{Seek, Write};
 use std::path::Path;
+
+/// The formats an [`Image`] is written in, chosen by the file's extension.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ImageFormat {
+    /// `.png`: 8-bit grey, sRGB.
+    Png,
+    /// `.jpg`, `.jpeg`: 8-bit grey, sRGB, quality 95.
+    Jpeg,
+    /// `.ppm`: binary P6, 8-bit sRGB RGB.
+    Ppm,
+    /// `.exr`: linear 32-bit float RGB, the values as rendered.
+    Exr,
+}
+
+impl ImageFormat {
+    /// The extensions understood, for messages and help.
+    pub const KNOWN: &'static str = ".png, .jpg (or .jpeg), .ppm or .exr";
+
+    /// The format of `path` by its extension (any case); `-`, standard
+    /// output, is PNG. An unknown or missing extension is an error that
+    /// names the path and the formats known.
+    pub fn of(path: &Path) -> Result<ImageFormat> {
+        if is_stdout(path) {
+            return Ok(ImageFormat::Png);
+        }
+        let ext = path
+            .extension()
+            .map(|e| e.to_string_lossy().to_ascii_lowercase());
+        match ext.as_deref() {
+            Some("png") => Ok(ImageFormat::Png),
+            Some("jpg") | Some("jpeg") => Ok(ImageFormat::Jpeg),
+            Some("ppm") => Ok(ImageFormat::Ppm),
+            Some("exr") => Ok(ImageFormat::Exr),
+            Some(e) => Err(Error::Invalid(format!(
+                "{}: unknown image format '.{e}': use {}, or - for PNG on standard output",
+                path.display(),
+                Self::KNOWN
+            ))),
+            None => Err(Error::Invalid(format!(
+                "{}: no extension to choose the image format by: use {}, or - for PNG on standard output",
+                path.display(),
+                Self::KNOWN
+            ))),
+        }
+    }
+}
+
+/// Whether `path` is `-`, standard output.
+pub fn is_stdout(path: &Path) -> bool {
+    path.as_os_str() == "-"
+}
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct Image {
@@ -57,24 +110,64 @@ impl Image {
         png
     }
 
-    /// Writes a PNG (grey) or, for a `.ppm` path, a binary PPM (P6, RGB).
+    /// Writes the image in the format of `path`'s extension (see
+    /// [`ImageFormat::of`]); `-` writes PNG to standard output.
     pub fn save(&self, path: &Path) -> Result<()> {
-        let grey = self.to_srgb8();
-        let ppm = path
-            .extension()
-            .is_some_and(|e| e.eq_ignore_ascii_case("ppm"));
-        write_atomically(path, |w| {
-            if ppm {
+        let format = ImageFormat::of(path)?;
+        if is_stdout(path) {
+            let mut bytes = std::io::Cursor::new(Vec::new());
+            let io = |source| Error::Io {
+                path: path.into(),
+                source,
+            };
+            self.write(&mut bytes, format).map_err(io)?;
+            let mut out = std::io::stdout().lock();
+            return out
+                .write_all(bytes.get_ref())
+                .and_then(|()| out.flush())
+                .map_err(|source| Error::Io {
+                    path: "standard output".into(),
+                    source,
+                });
+        }
+        write_atomically(path, |w| self.write(w, format))
+    }
+
+    /// Encodes the image as `format` into `w`.
+    pub fn write<W: Write + Seek>(&self, w: &mut W, format: ImageFormat) -> std::io::Result<()> {
+        let (width, height) = (self.width as u32, self.height as u32);
+        match format {
+            ImageFormat::Ppm => {
                 write!(w, "P6\n{} {}\n255\n", self.width, self.height)?;
-                let rgb: Vec<u8> = grey.iter().flat_map(|&g| [g, g, g]).collect();
+                let rgb: Vec<u8> = self.to_srgb8().iter().flat_map(|&g| [g, g, g]).collect();
                 w.write_all(&rgb)
-            } else {
-                image::GrayImage::from_raw(self.width as u32, self.height as u32, grey)
-                    .expect("buffer matches size")
-                    .write_to(w, image::ImageFormat::Png)
+            }
+            ImageFormat::Png => image::GrayImage::from_raw(width, height, self.to_srgb8())
+                .expect("buffer matches size")
+                .write_to(w, image::ImageFormat::Png)
+                .map_err(std::io::Error::other),
+            ImageFormat::Jpeg => {
+                let grey = image::GrayImage::from_raw(width, height, self.to_srgb8())
+                    .expect("buffer matches size");
+                image::codecs::jpeg::JpegEncoder::new_with_quality(w, 95)
+                    .encode_image(&grey)
                     .map_err(std::io::Error::other)
             }
-        })
+            ImageFormat::Exr => {
+                let rgb: Vec<f32> = self
+                    .pixels
+                    .iter()
+                    .flat_map(|&v| {
+                        let v = if v.is_finite() { v } else { 0.0 };
+                        [v, v, v]
+                    })
+                    .collect();
+                image::Rgb32FImage::from_raw(width, height, rgb)
+                    .expect("buffer matches size")
+                    .write_to(w, image::ImageFormat::OpenExr)
+                    .map_err(std::io::Error::other)
+            }
+        }
     }
 }
 
@@ -191,5 +284,44 @@ mod tests {
         assert_eq!(ppm.len(), 11 + 4 * 2 * 3);
         let png = image::open(dir.path().join("a.png")).unwrap();
         assert_eq!((png.width(), png.height()), (4, 2));
+    }
+
+    #[test]
+    fn the_extension_chooses_the_format() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut im = Image::new(8, 4);
+        im.set(3, 1, 0.5);
+        im.set(7, 3, 1.0);
+        for (name, magic) in [
+            ("a.png", &b"\x89PNG"[..]),
+            ("a.PNG", &b"\x89PNG"[..]),
+            ("a.jpg", &b"\xff\xd8\xff"[..]),
+            ("a.jpeg", &b"\xff\xd8\xff"[..]),
+            ("a.ppm", &b"P6\n"[..]),
+            ("a.exr", &b"\x76\x2f\x31\x01"[..]),
+        ] {
+            let path = dir.path().join(name);
+            im.save(&path).unwrap();
+            let bytes = std::fs::read(&path).unwrap();
+            assert!(bytes.starts_with(magic), "{name}: {:x?}", &bytes[..8]);
+            if !name.ends_with("ppm") {
+                let back = image::open(&path).unwrap();
+                assert_eq!((back.width(), back.height()), (8, 4), "{name}");
+            }
+        }
+        // EXR keeps the linear values.
+        let exr = image::open(dir.path().join("a.exr")).unwrap().into_rgb32f();
+        assert_eq!(exr.get_pixel(3, 1).0, [0.5; 3]);
+        assert_eq!(exr.get_pixel(7, 3).0, [1.0; 3]);
+        for bad in ["a.jpgx", "a.gif", "noext", "a.png.txt"] {
+            let m = im.save(&dir.path().join(bad)).unwrap_err().to_string();
+            assert!(m.contains(bad) && m.contains(".png, .jpg"), "{bad}: {m}");
+        }
+        assert_eq!(ImageFormat::of(Path::new("-")).unwrap(), ImageFormat::Png);
+        let names: Vec<_> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name().into_string().unwrap())
+            .collect();
+        assert_eq!(names.len(), 6, "{names:?}");
     }
 }

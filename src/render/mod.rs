@@ -12,7 +12,7 @@ mod path;
 pub mod rayset;
 mod sampling;
 
-pub use self::image::{remove_unfinished_files, write_atomically, Image};
+pub use self::image::{is_stdout, remove_unfinished_files, write_atomically, Image, ImageFormat};
 pub use ao::AoSettings;
 pub use ao_phased::{render_ao_phased, render_ao_phased_uncounted, Phase, PhasedAo};
 pub use path::PathSettings;

@@ -45,7 +45,7 @@ impl Scene {
         memory::check_fits(
             &path.display().to_string(),
             mesh.triangle_count() as u64,
-            memory::available_bytes(),
+            memory::available_bytes()?,
         )?;
         let camera = Camera::framing(&mesh.bounds());
         Ok(Scene::new(path.display().to_string(), mesh, camera))

@@ -139,7 +139,7 @@ pub fn scene(target_triangles: usize) -> Scene {
     let profile_of = |p: &[(f32, f32)]| {
         let i = [PAWN, ROOK, KNIGHT, BISHOP, QUEEN, KING]
             .iter()
-            .position(|q| std::ptr::eq(*q, p))
+            .position(|q| *q == p)
             .unwrap();
         &profiles[i]
     };

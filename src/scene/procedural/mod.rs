@@ -74,7 +74,7 @@ pub fn build(spec: &str) -> Result<Scene> {
             SIZE_RANGE.0, SIZE_RANGE.1
         )));
     }
-    super::memory::check_fits(spec, size as u64, super::memory::available_bytes())?;
+    super::memory::check_fits(spec, size as u64, super::memory::available_bytes()?)?;
     let mut scene = (b.make)(size);
     scene.name = format!("{name}:{size}");
     Ok(scene)
