@@ -22,6 +22,7 @@ pub mod bvh;
 pub mod error;
 pub mod fuzzing;
 pub mod geometry;
+pub mod names;
 pub mod rayfile;
 pub mod render;
 pub mod rng;

@@ -2,6 +2,7 @@
 //! [`crate::bvh::Bvh`] (or, for the oracle, from nothing) and answers
 //! [`Accel`].
 
+mod batch;
 pub mod bih;
 pub(crate) mod binary_bvh;
 mod brute;
@@ -13,6 +14,7 @@ pub(crate) mod own_box_node;
 mod select;
 pub mod sparse_bvh;
 
+pub use batch::Tracer;
 pub use bih::Bih;
 pub use binary_bvh::BinaryBvh;
 pub use brute::BruteForce;

@@ -11,6 +11,7 @@ use super::{
 use crate::bvh::Bvh;
 use crate::error::{Error, Result};
 use crate::geometry::Triangle;
+use crate::names::Named;
 use crate::traversal::{
     state_bytes, Hapala, ImplicitA, ImplicitB, Laine, OnImplicit, OnSparse, Sparse, StackOnSparse,
 };
@@ -18,8 +19,9 @@ use serde::Serialize;
 use std::sync::Arc;
 use std::time::Instant;
 
-/// Every structure raytree names.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, clap::ValueEnum, Serialize)]
+/// Every structure raytree names. The registry is [`Named::TABLE`]: one
+/// line per structure; [`Built::with_options`] derives each from the BVH.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum StructureKind {
     /// Uncompressed binary BVH: 52-byte inner nodes, 4-byte leaves.
@@ -38,8 +40,51 @@ pub enum StructureKind {
     Brute,
 }
 
+impl Named for StructureKind {
+    const WHAT: &'static str = "structure";
+    const TABLE: &'static [(Self, &'static str, &'static str)] = &[
+        (
+            StructureKind::Bvh,
+            "bvh",
+            "uncompressed binary BVH: 52-byte inner nodes, 4-byte leaves",
+        ),
+        (
+            StructureKind::Dst,
+            "dst",
+            "dual-split tree, identical conversion (Lin et al. 2019)",
+        ),
+        (
+            StructureKind::DstSimilar,
+            "dst-similar",
+            "dual-split tree, similar conversion (carving may be deferred)",
+        ),
+        (
+            StructureKind::Bih,
+            "bih",
+            "bounding interval hierarchy with clip nodes",
+        ),
+        (
+            StructureKind::Htree,
+            "htree",
+            "H-tree: kd-splits and bounding nodes",
+        ),
+        (
+            StructureKind::Cbvh,
+            "cbvh",
+            "Compact BVH: shared planes, 32-byte nodes",
+        ),
+        (
+            StructureKind::Brute,
+            "brute",
+            "brute force: every triangle (the oracle)",
+        ),
+    ];
+}
+
+crate::named_from_str!(StructureKind);
+
 /// Every traversal raytree names (for `bvh`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, clap::ValueEnum, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum TraversalKind {
     /// Stack of node references, nearest child first.
@@ -53,65 +98,111 @@ pub enum TraversalKind {
     /// Parent links, child order by ray direction (Hapala et al. 2011).
     Hapala,
     /// Restart trail, no short stack (Laine 2010).
-    #[value(name = "laine-0")]
     #[serde(rename = "laine-0")]
     Laine0,
     /// Restart trail, short stack of 1.
-    #[value(name = "laine-1")]
     #[serde(rename = "laine-1")]
     Laine1,
     /// Restart trail, short stack of 2.
-    #[value(name = "laine-2")]
     #[serde(rename = "laine-2")]
     Laine2,
     /// Restart trail, short stack of 4.
-    #[value(name = "laine-4")]
     #[serde(rename = "laine-4")]
     Laine4,
     /// Restart trail, short stack of 8.
-    #[value(name = "laine-8")]
     #[serde(rename = "laine-8")]
     Laine8,
 }
 
+impl Named for TraversalKind {
+    const WHAT: &'static str = "traversal";
+    const TABLE: &'static [(Self, &'static str, &'static str)] = &[
+        (
+            TraversalKind::Stack,
+            "stack",
+            "stack of node references, nearest child first",
+        ),
+        (
+            TraversalKind::ImplicitA,
+            "implicit-a",
+            "stackless, implicit heap layout (Barringer and Akenine-Möller 2013, Alg. 2)",
+        ),
+        (
+            TraversalKind::ImplicitB,
+            "implicit-b",
+            "stackless, implicit layout, one combined index (Alg. 3)",
+        ),
+        (
+            TraversalKind::Sparse,
+            "sparse",
+            "stackless over parent links (Alg. 4)",
+        ),
+        (
+            TraversalKind::Hapala,
+            "hapala",
+            "parent links, child order by ray direction (Hapala et al. 2011)",
+        ),
+        (
+            TraversalKind::Laine0,
+            "laine-0",
+            "restart trail, no short stack (Laine 2010)",
+        ),
+        (
+            TraversalKind::Laine1,
+            "laine-1",
+            "restart trail, short stack of 1",
+        ),
+        (
+            TraversalKind::Laine2,
+            "laine-2",
+            "restart trail, short stack of 2",
+        ),
+        (
+            TraversalKind::Laine4,
+            "laine-4",
+            "restart trail, short stack of 4",
+        ),
+        (
+            TraversalKind::Laine8,
+            "laine-8",
+            "restart trail, short stack of 8",
+        ),
+    ];
+}
+
+crate::named_from_str!(TraversalKind);
+
 impl StructureKind {
+    /// The structure's name (`bvh`, `dst-similar`).
     pub fn name(self) -> &'static str {
-        use StructureKind::*;
-        match self {
-            Bvh => "bvh",
-            Dst => "dst",
-            DstSimilar => "dst-similar",
-            Bih => "bih",
-            Htree => "htree",
-            Cbvh => "cbvh",
-            Brute => "brute",
-        }
+        Named::name(self)
     }
 
+    /// Every structure, in the registry's order.
     pub fn all() -> &'static [StructureKind] {
-        <Self as clap::ValueEnum>::value_variants()
+        const ALL: [StructureKind; 7] = {
+            let t = <StructureKind as Named>::TABLE;
+            [t[0].0, t[1].0, t[2].0, t[3].0, t[4].0, t[5].0, t[6].0]
+        };
+        &ALL
     }
 }
 
 impl TraversalKind {
+    /// The traversal's name (`stack`, `laine-4`).
     pub fn name(self) -> &'static str {
-        use TraversalKind::*;
-        match self {
-            Stack => "stack",
-            ImplicitA => "implicit-a",
-            ImplicitB => "implicit-b",
-            Sparse => "sparse",
-            Hapala => "hapala",
-            Laine0 => "laine-0",
-            Laine1 => "laine-1",
-            Laine2 => "laine-2",
-            Laine4 => "laine-4",
-            Laine8 => "laine-8",
-        }
+        Named::name(self)
     }
 
+    /// Every traversal, in the registry's order.
     pub fn all() -> &'static [TraversalKind] {
-        <Self as clap::ValueEnum>::value_variants()
+        const ALL: [TraversalKind; 10] = {
+            let t = <TraversalKind as Named>::TABLE;
+            [
+                t[0].0, t[1].0, t[2].0, t[3].0, t[4].0, t[5].0, t[6].0, t[7].0, t[8].0, t[9].0,
+            ]
+        };
+        &ALL
     }
 }
 
@@ -395,18 +486,25 @@ mod tests {
             serde_json::to_string(&StructureKind::DstSimilar).unwrap(),
             "\"dst-similar\""
         );
-        // The clap names agree with name().
-        for s in StructureKind::all() {
+        // Names parse back, and the JSON names are the same.
+        for &s in StructureKind::all() {
+            assert_eq!(s.name().parse::<StructureKind>(), Ok(s));
             assert_eq!(
-                clap::ValueEnum::to_possible_value(s).unwrap().get_name(),
-                s.name()
+                serde_json::to_string(&s).unwrap(),
+                format!("\"{}\"", s.name())
             );
         }
-        for t in TraversalKind::all() {
+        for &t in TraversalKind::all() {
+            assert_eq!(t.name().parse::<TraversalKind>(), Ok(t));
             assert_eq!(
-                clap::ValueEnum::to_possible_value(t).unwrap().get_name(),
-                t.name()
+                serde_json::to_string(&t).unwrap(),
+                format!("\"{}\"", t.name())
             );
         }
+        let e = "bvh4".parse::<StructureKind>().unwrap_err().to_string();
+        assert_eq!(
+            e,
+            "unknown structure 'bvh4' (known: bvh, dst, dst-similar, bih, htree, cbvh, brute)"
+        );
     }
 }

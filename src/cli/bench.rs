@@ -81,7 +81,7 @@ pub struct DstArgs {
     height: Option<u32>,
     /// Structures to measure, comma-separated [default: bvh, dst,
     /// dst-similar, bih, htree, cbvh]; ratios are to bvh when it is among them.
-    #[arg(long, short = 'a', value_enum, value_delimiter = ',')]
+    #[arg(long, short = 'a', value_parser = common::named::<StructureKind>(), value_delimiter = ',')]
     accel: Vec<StructureKind>,
     /// BVH builder [default: binned SAH, as the paper's Embree build].
     #[arg(long, value_enum, default_value_t = BuilderArg::Sah)]

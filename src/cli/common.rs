@@ -6,6 +6,7 @@ use raytree::accel::{Built, LayoutOptions, StructureInfo, StructureKind, Travers
 use raytree::bench::machine::{Machine, Measured};
 use raytree::bvh::{BuildOptions, BuildStats, Builder, Bvh};
 use raytree::error::Result;
+use raytree::names::Named;
 use raytree::prelude::Vec3;
 use raytree::scene::{Camera, Scene};
 use serde::Serialize;
@@ -106,12 +107,12 @@ pub enum BuilderArg {
 #[derive(Args, Clone, Debug)]
 pub struct StructureArgs {
     /// Acceleration structure.
-    #[arg(long, short = 'a', value_enum, default_value_t = StructureKind::Bvh)]
+    #[arg(long, short = 'a', value_parser = named::<StructureKind>(), default_value_t = StructureKind::Bvh)]
     pub accel: StructureKind,
     /// Traversal algorithm (for --accel bvh). implicit-a and implicit-b run
     /// over the implicit heap layout; sparse, hapala and laine-k over the
     /// sparse layout with parent links; stack over the 52-byte binary layout.
-    #[arg(long, short = 't', value_enum, default_value_t = TraversalKind::Stack)]
+    #[arg(long, short = 't', value_parser = named::<TraversalKind>(), default_value_t = TraversalKind::Stack)]
     pub traversal: TraversalKind,
     /// Most address space the implicit layout may reserve, in GiB (its gaps
     /// are reserved, not resident).
@@ -182,6 +183,18 @@ pub fn build_structure(
         implicit_reservation_limit: (s.implicit_limit * (1u64 << 30) as f64) as u64,
     };
     Built::with_options(s.accel, s.traversal, bvh, scene.triangles.clone(), &opts)
+}
+
+/// A clap parser for the names of a [`Named`] type, with their
+/// descriptions in `--help`.
+pub fn named<T: Named + Send + Sync>() -> impl clap::builder::TypedValueParser<Value = T> {
+    use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
+    PossibleValuesParser::new(
+        T::TABLE
+            .iter()
+            .map(|&(_, name, help)| PossibleValue::new(name).help(help)),
+    )
+    .map(|s| T::from_name(&s).expect("clap checked the name"))
 }
 
 /// A step without a count (loading, building, converting) shown as a

@@ -74,7 +74,7 @@ pub struct RenderArgs {
     /// "-nodes" (etc.) before the extension, as PNG with the colour scale
     /// (0 to the 99.5th percentile of the pixels' counts) beneath, labelled
     /// with 0, its middle and its top and the measure's name.
-    #[arg(long, value_enum, value_delimiter = ',')]
+    #[arg(long, value_parser = common::named::<Measure>(), value_delimiter = ',')]
     heatmap: Vec<Measure>,
     /// The count drawn white in every heat map, instead of the 99.5th
     /// percentile: one scale for maps of several structures.

@@ -12,7 +12,7 @@ use std::io::Write;
 use std::path::Path;
 
 /// Which counter a heat map shows.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Measure {
     /// Nodes visited.
@@ -23,13 +23,25 @@ pub enum Measure {
     Triangles,
 }
 
+impl crate::names::Named for Measure {
+    const WHAT: &'static str = "measure";
+    const TABLE: &'static [(Self, &'static str, &'static str)] = &[
+        (Measure::Nodes, "nodes", "nodes visited"),
+        (
+            Measure::Planes,
+            "planes",
+            "ray-plane tests (6 per box, 2 per two-plane node)",
+        ),
+        (Measure::Triangles, "triangles", "ray-triangle tests"),
+    ];
+}
+
+crate::named_from_str!(Measure);
+
 impl Measure {
+    /// The measure's name (`nodes`, `planes`, `triangles`).
     pub fn name(self) -> &'static str {
-        match self {
-            Measure::Nodes => "nodes",
-            Measure::Planes => "planes",
-            Measure::Triangles => "triangles",
-        }
+        crate::names::Named::name(self)
     }
 
     pub fn of(self, t: &Tally) -> u32 {

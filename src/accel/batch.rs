@@ -1,0 +1,250 @@
+//! Batches of rays through a structure chosen at run time: [`Tracer`] is
+//! object safe, so a program can hold a `Box<dyn Tracer>` built from a name
+//! given on its command line ([`Built::tracer`]) and trace slices of rays in
+//! parallel, while each structure's kernel stays monomorphized inside (the
+//! blanket implementation over [`Accel`] calls it with a concrete type).
+
+use super::{Accel, Built};
+use crate::error::{Error, Result};
+use crate::geometry::{Hit, Ray};
+use crate::stats::{Counters, NoStats};
+use rayon::prelude::*;
+
+/// Rays per parallel task: large enough that scheduling costs nothing
+/// against tracing, small enough to balance 2 to 64 threads.
+const CHUNK: usize = 1024;
+
+/// A built structure behind a trait object: closest hit and any hit over
+/// slices of rays, traced in parallel on rayon's current pool.
+///
+/// Every call answers ray `i` into slot `i`; a ray that is not
+/// [`Ray::is_valid`] is a miss. Counters, when asked for, are the sums over
+/// the batch (`rays` is the batch's length) and do not depend on the number
+/// of threads.
+pub trait Tracer: Send + Sync {
+    /// The structure's name as the command line spells it (`bvh`, `dst`).
+    fn name(&self) -> &'static str;
+
+    /// Bytes of the structure itself (nodes and index lists, not the
+    /// triangles).
+    fn bytes(&self) -> usize;
+
+    /// The closest hit of each ray within its `[tmin, tmax]`, ties to the
+    /// smaller triangle index, into `hits` (same length as `rays`).
+    ///
+    /// # Errors
+    /// [`Error::Invalid`] when the slices differ in length.
+    fn intersect(
+        &self,
+        rays: &[Ray],
+        hits: &mut [Option<Hit>],
+        counters: Option<&mut Counters>,
+    ) -> Result<()>;
+
+    /// Whether each ray hits anything within its `[tmin, tmax]` (any hit,
+    /// the first one found ends the search), into `occluded`.
+    ///
+    /// # Errors
+    /// [`Error::Invalid`] when the slices differ in length.
+    fn occluded(
+        &self,
+        rays: &[Ray],
+        occluded: &mut [bool],
+        counters: Option<&mut Counters>,
+    ) -> Result<()>;
+}
+
+fn same_length(rays: usize, out: usize) -> Result<()> {
+    if rays == out {
+        Ok(())
+    } else {
+        Err(Error::Invalid(format!(
+            "{rays} rays but room for {out} answers: the slices must have the same length"
+        )))
+    }
+}
+
+/// Runs `one` over every ray into its slot, in parallel; with counters,
+/// each chunk counts into its own [`Counters`] and the sums are added.
+fn batch<A: Accel, T: Send>(
+    accel: &A,
+    rays: &[Ray],
+    out: &mut [T],
+    counters: Option<&mut Counters>,
+    one: impl Fn(&A, &Ray, &mut Counters) -> T + Sync,
+    one_uncounted: impl Fn(&A, &Ray) -> T + Sync,
+) -> Result<()> {
+    same_length(rays.len(), out.len())?;
+    let chunks = rays.par_chunks(CHUNK).zip(out.par_chunks_mut(CHUNK));
+    match counters {
+        None => chunks.for_each(|(r, o)| {
+            for (ray, slot) in r.iter().zip(o) {
+                *slot = one_uncounted(accel, ray);
+            }
+        }),
+        Some(total) => {
+            let sum = chunks
+                .map(|(r, o)| {
+                    let mut c = Counters::default();
+                    for (ray, slot) in r.iter().zip(o) {
+                        *slot = one(accel, ray, &mut c);
+                    }
+                    c
+                })
+                .reduce(Counters::default, |mut a, b| {
+                    a += b;
+                    a
+                });
+            *total += sum;
+            total.rays += rays.len() as u64;
+        }
+    }
+    Ok(())
+}
+
+impl<A: Accel> Tracer for A {
+    fn name(&self) -> &'static str {
+        Accel::name(self)
+    }
+
+    fn bytes(&self) -> usize {
+        Accel::bytes(self)
+    }
+
+    fn intersect(
+        &self,
+        rays: &[Ray],
+        hits: &mut [Option<Hit>],
+        counters: Option<&mut Counters>,
+    ) -> Result<()> {
+        batch(
+            self,
+            rays,
+            hits,
+            counters,
+            |a, r, c| a.closest_hit(r, c),
+            |a, r| a.closest_hit(r, &mut NoStats),
+        )
+    }
+
+    fn occluded(
+        &self,
+        rays: &[Ray],
+        occluded: &mut [bool],
+        counters: Option<&mut Counters>,
+    ) -> Result<()> {
+        batch(
+            self,
+            rays,
+            occluded,
+            counters,
+            |a, r, c| a.any_hit(r, c).is_some(),
+            |a, r| a.any_hit(r, &mut NoStats).is_some(),
+        )
+    }
+}
+
+impl Built {
+    /// The structure as a trait object for batches.
+    pub fn tracer(self) -> Box<dyn Tracer> {
+        match self {
+            Built::Bvh(a) => Box::new(a),
+            Built::StackOnSparse(a) => Box::new(a),
+            Built::Sparse(a) => Box::new(a),
+            Built::Hapala(a) => Box::new(a),
+            Built::Laine0(a) => Box::new(a),
+            Built::Laine1(a) => Box::new(a),
+            Built::Laine2(a) => Box::new(a),
+            Built::Laine4(a) => Box::new(a),
+            Built::Laine8(a) => Box::new(a),
+            Built::ImplicitA(a) => Box::new(a),
+            Built::ImplicitB(a) => Box::new(a),
+            Built::Dst(a) => Box::new(a),
+            Built::Bih(a) => Box::new(a),
+            Built::Htree(a) => Box::new(a),
+            Built::Cbvh(a) => Box::new(a),
+            Built::Brute(a) => Box::new(a),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::{StructureKind, TraversalKind};
+    use crate::bvh::{BuildOptions, Builder, Bvh};
+    use crate::scene::Scene;
+    use glam::Vec3;
+
+    fn rays(scene: &Scene, n: usize) -> Vec<Ray> {
+        let mut rng = crate::rng::Pcg32::new(19, 1);
+        let c = scene.mesh.bounds().center();
+        let r = scene.mesh.bounds().extent().length();
+        (0..n)
+            .map(|i| {
+                let o = c + Vec3::new(rng.range(-1.0, 1.0), 1.0, rng.range(-1.0, 1.0)) * r;
+                let target = scene.triangles[i % scene.triangles.len()].centroid();
+                Ray::new(
+                    o,
+                    target - o,
+                    0.0,
+                    if i % 5 == 0 { 0.5 } else { f32::INFINITY },
+                )
+            })
+            .collect()
+    }
+
+    #[test]
+    fn batches_answer_as_single_rays_on_any_thread_count() {
+        let scene = Scene::from_spec("chess:3000").unwrap();
+        let bvh = Bvh::build(&scene.triangles, &BuildOptions::new(Builder::Sah));
+        let mut rays = rays(&scene, 5000);
+        rays[7] = Ray::infinite(Vec3::NAN, Vec3::X);
+        for (s, t) in [
+            (StructureKind::Bvh, TraversalKind::Stack),
+            (StructureKind::Bvh, TraversalKind::Laine2),
+            (StructureKind::Dst, TraversalKind::Stack),
+        ] {
+            let (built, _) = Built::new(s, t, &bvh, scene.triangles.clone()).unwrap();
+            let (want, want_any, want_counts) = built.with(Single(&rays));
+            let tracer: Box<dyn Tracer> = built.tracer();
+            assert_eq!(tracer.name(), s.name());
+            for threads in [1, 2, 3] {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap();
+                let mut hits = vec![None; rays.len()];
+                let mut occluded = vec![false; rays.len()];
+                let mut c = Counters::default();
+                pool.install(|| {
+                    tracer.intersect(&rays, &mut hits, Some(&mut c)).unwrap();
+                    tracer.occluded(&rays, &mut occluded, None).unwrap();
+                });
+                assert_eq!(hits, want, "{} {threads} threads", s.name());
+                assert_eq!(occluded, want_any);
+                assert_eq!(c, want_counts);
+                assert!(hits[7].is_none());
+            }
+            let mut short = vec![None; 3];
+            assert!(tracer.intersect(&rays, &mut short, None).is_err());
+        }
+    }
+
+    struct Single<'a>(&'a [Ray]);
+
+    impl crate::accel::WithAccel for Single<'_> {
+        type Output = (Vec<Option<Hit>>, Vec<bool>, Counters);
+        fn run<A: Accel>(self, a: &A) -> Self::Output {
+            let mut c = Counters::default();
+            let hits = self.0.iter().map(|r| a.closest_hit(r, &mut c)).collect();
+            c.rays = self.0.len() as u64;
+            let any = self
+                .0
+                .iter()
+                .map(|r| a.any_hit(r, &mut NoStats).is_some())
+                .collect();
+            (hits, any, c)
+        }
+    }
+}
