@@ -39,23 +39,15 @@ pub fn parse_rays(bytes: &[u8], path: &Path) -> Result<Vec<Ray>> {
         .map(|(i, c)| {
             let f: [f32; 8] =
                 std::array::from_fn(|k| f32::from_le_bytes(c[4 * k..4 * k + 4].try_into().unwrap()));
-            let ray = Ray::new(
-                Vec3::new(f[0], f[1], f[2]),
-                Vec3::new(f[3], f[4], f[5]),
-                f[6],
-                f[7],
-            );
-            if ray.is_valid() {
-                Ok(ray)
-            } else {
-                Err(err(format!(
-                    "ray {i} (byte {}) cannot be traced: origin {:?}, direction {:?}, interval [{}, {}]; origins and directions must be finite, directions non-zero",
+            let (origin, direction) = (Vec3::new(f[0], f[1], f[2]), Vec3::new(f[3], f[4], f[5]));
+            match Ray::invalid_reason(origin, direction, f[6], f[7]) {
+                None => Ok(Ray::new(origin, direction, f[6], f[7])),
+                Some(why) => Err(err(format!(
+                    "ray {i} (byte {}) cannot be traced: {why} (origin {origin:?}, direction {direction:?}, interval [{}, {}])",
                     i * RAY_BYTES,
-                    ray.origin(),
-                    ray.direction(),
                     f[6],
                     f[7]
-                )))
+                ))),
             }
         })
         .collect()

@@ -1,10 +1,11 @@
 use super::{Aabb, Ray};
 use glam::{DVec3, Vec3};
 
-/// Below this fraction of a vertex's distance from the ray's origin, a
-/// triangle's sheared extent is tested on the precise path: f32 shearing
-/// rounds by about 2⁻²³ of that distance, an eighth of 2⁻²⁰.
-pub const ILL_CONDITIONED: f32 = 1.0 / (1u32 << 20) as f32;
+/// A triangle whose sheared determinant (twice its projected area) is below
+/// this fraction of the squared distance `m` of its vertex from the ray's
+/// origin is tested on the precise path: it is smaller than about 2⁻¹⁸ of
+/// `m` (or seen edge-on), while f32 shearing rounds by 2⁻²³ of `m`.
+pub const ILL_CONDITIONED: f32 = 1.0 / (1u64 << 36) as f32;
 
 /// Below this distance of a triangle's vertex from the ray's origin
 /// (2⁻³², about 2.3e-10), f32 products of sheared coordinates may fall
@@ -85,9 +86,9 @@ impl Triangle {
     ///
     /// Where f32 cannot decide, the whole test is done again in
     /// double-double arithmetic on the ray itself (`precise.rs`, also
-    /// watertight): a triangle smaller than [`ILL_CONDITIONED`] of its
-    /// distance from the ray's origin (the sheared coordinates' rounding
-    /// would exceed an eighth of its size), a configuration within
+    /// watertight): a triangle smaller than about 2⁻¹⁸ of its distance from
+    /// the ray's origin (see [`ILL_CONDITIONED`]: the sheared coordinates'
+    /// rounding would approach its size), a configuration within
     /// [`TINY_SCALE`] of the origin or with a determinant below
     /// [`TINY_DETERMINANT`] (f32 products underflow), and products that
     /// overflow f32. So every triangle that is not degenerate is hit
@@ -108,19 +109,6 @@ impl Triangle {
         let by = b[ky] - s.y * b[kz];
         let cx = c[kx] - s.x * c[kz];
         let cy = c[ky] - s.y * c[kz];
-        // Conditioning: the sheared coordinates carry rounding errors of
-        // about 2⁻²³ of the vertex's distance `m` from the origin; the
-        // triangle's sheared extent `e` must stand well above them. The
-        // negated comparisons send NaN to the precise path too.
-        let m = a[kx].abs().max(a[ky].abs()).max(a[kz].abs());
-        let e = (bx - ax)
-            .abs()
-            .max((by - ay).abs())
-            .max((cx - ax).abs())
-            .max((cy - ay).abs());
-        if !(e >= m * ILL_CONDITIONED && m >= TINY_SCALE) {
-            return self.intersect_precise(ray, tmin, tmax);
-        }
         let mut u = cx * by - cy * bx;
         let mut v = ax * cy - ay * cx;
         let mut w = bx * ay - by * ax;
@@ -131,10 +119,23 @@ impl Triangle {
             v = f(ax, cy, ay, cx);
             w = f(bx, ay, by, ax);
         }
+        let det = u + v + w;
+        // Conditioning: the sheared coordinates carry rounding errors of
+        // about 2⁻²³ of vertex a's distance `m` from the origin (L1 over
+        // the sheared axes and the ray's axis), and so do the edge
+        // functions of its lever arms. The determinant, twice the sheared
+        // triangle's area, is at most its extent squared: below
+        // `m²·ILL_CONDITIONED` the triangle is smaller than about 2⁻¹⁸ of
+        // `m` (or seen edge-on), and f32 cannot be trusted with the signs.
+        // A vertex within TINY_SCALE of the origin may give subnormal
+        // products. The negated comparison sends NaN there too.
+        let m = ax.abs() + ay.abs() + a[kz].abs();
+        if !(det.abs() >= m * m * ILL_CONDITIONED && m >= TINY_SCALE) {
+            return self.intersect_precise(ray, tmin, tmax);
+        }
         if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
             return None;
         }
-        let det = u + v + w;
         if det == 0.0 {
             return None;
         }
