@@ -17,7 +17,6 @@
 //! ```
 
 pub mod accel;
-pub mod bench;
 pub mod bvh;
 pub mod error;
 pub mod fuzzing;

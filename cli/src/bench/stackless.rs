@@ -14,13 +14,13 @@
 //! which is the reference of the ratios: the paper gave every algorithm the
 //! same nodes.
 
-use crate::accel::{Built, SparseBvh, StructureKind, TraversalKind, WithAccel};
-use crate::bvh::{BuildOptions, BuildStats, Bvh};
-use crate::error::Result;
-use crate::render::{render_ao_phased, render_ao_phased_uncounted, AoSettings, Phase, PhasedAo};
-use crate::scene::Scene;
-use crate::stats::PerRay;
-use crate::traversal::state_bytes;
+use raytree::accel::{Built, SparseBvh, StructureKind, TraversalKind, WithAccel};
+use raytree::bvh::{BuildOptions, BuildStats, Bvh};
+use raytree::error::Result;
+use raytree::render::{render_ao_phased, render_ao_phased_uncounted, AoSettings, Phase, PhasedAo};
+use raytree::scene::Scene;
+use raytree::stats::PerRay;
+use raytree::traversal::state_bytes;
 use serde::Serialize;
 use std::sync::Arc;
 
@@ -144,7 +144,7 @@ impl<'a> Phased<'a> {
 
 impl WithAccel for Phased<'_> {
     type Output = PhasedAo;
-    fn run<A: crate::accel::Accel>(self, a: &A) -> PhasedAo {
+    fn run<A: raytree::accel::Accel>(self, a: &A) -> PhasedAo {
         let (w, h) = self.size;
         if self.counted {
             render_ao_phased(a, self.scene, self.ao, w, h)
@@ -185,7 +185,7 @@ pub fn run_scene(scene: &Scene, opts: &Options, tick: &dyn Fn()) -> Result<Scene
             .num_threads(threads)
             .build()
             .map_err(|e| {
-                crate::error::Error::Invalid(format!("cannot start {threads} threads: {e}"))
+                raytree::error::Error::Invalid(format!("cannot start {threads} threads: {e}"))
             })?;
         let size = (w, h);
         // First one counted, untimed render per row: its per-ray work and

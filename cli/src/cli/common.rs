@@ -1,9 +1,9 @@
 //! Options and steps shared by the subcommands.
 
+use crate::bench::machine::{Machine, Measured};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use raytree::accel::{Built, LayoutOptions, StructureInfo, StructureKind, TraversalKind};
-use raytree::bench::machine::{Machine, Measured};
 use raytree::bvh::{BuildOptions, BuildStats, Builder, Bvh};
 use raytree::error::Result;
 use raytree::names::Named;

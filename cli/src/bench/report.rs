@@ -6,8 +6,8 @@
 use super::dst::{percent_cell, same_image_cell, SceneResult, VsBvh};
 use super::machine::Machine;
 use super::svg::{stacked_bars, Bar};
-use crate::stats::MIB;
 use base64::Engine;
+use raytree::stats::MIB;
 
 /// The CSV columns, in order.
 pub const CSV_HEADER: &str = "scene,triangles,structure,bytes,node_bytes,index_bytes,storage_ratio,node_storage_ratio,nodes,conversion_seconds,frame_seconds,frame_ratio,mrays_per_second,nodes_per_ray,planes_per_ray,triangles_per_ray,nodes_ratio,planes_ratio,triangles_ratio,same_image";

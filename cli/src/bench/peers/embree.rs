@@ -5,10 +5,10 @@
 //! compared with raytree's by distance.
 
 use super::Contender;
-use crate::error::{Error, Result};
-use crate::geometry::Ray;
-use crate::scene::Scene;
 use embree::{Geometry, IntersectContext, RayHit, TriangleMesh};
+use raytree::error::{Error, Result};
+use raytree::geometry::Ray;
+use raytree::scene::Scene;
 use std::time::Instant;
 
 pub use embree::Device;

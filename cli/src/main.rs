@@ -1,7 +1,5 @@
 //! The `raytree` command: render, trace ray files, inspect structures.
 
-mod cli;
-
 fn main() -> std::process::ExitCode {
-    cli::main()
+    raytree_cli::cli::main()
 }

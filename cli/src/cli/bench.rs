@@ -2,12 +2,12 @@
 
 use super::common::{self, BuilderArg};
 use super::out::say;
+use crate::bench::machine::Machine;
+use crate::bench::stackless::{self, Preset};
+use crate::bench::svg::{stacked_bars, Bar};
+use crate::bench::{dst, peers, report};
 use clap::{Args, Subcommand};
 use raytree::accel::StructureKind;
-use raytree::bench::machine::Machine;
-use raytree::bench::stackless::{self, Preset};
-use raytree::bench::svg::{stacked_bars, Bar};
-use raytree::bench::{dst, peers, report};
 use raytree::bvh::{BuildOptions, Builder};
 use raytree::error::Result;
 use raytree::render::AoSettings;

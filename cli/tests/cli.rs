@@ -1,5 +1,6 @@
 //! Tests that run the `raytree` binary.
 
+#[path = "../../tests/common/mod.rs"]
 mod common;
 
 use raytree::prelude::*;
@@ -365,7 +366,7 @@ fn bench_stackless_reports_every_algorithm() {
     assert_eq!(scenes.len(), 2);
     for scene in scenes {
         let rows = scene["rows"].as_array().unwrap();
-        assert_eq!(rows.len(), 2 * raytree::bench::stackless::ROWS.len());
+        assert_eq!(rows.len(), 2 * raytree_cli::bench::stackless::ROWS.len());
         for row in rows {
             let name = row["algorithm"].as_str().unwrap();
             assert!(
@@ -434,7 +435,7 @@ fn bench_dst_reports_every_structure() {
     assert_eq!(same, json);
     let csv = std::fs::read_to_string(rep.join("dst.csv")).unwrap();
     let lines: Vec<&str> = csv.lines().collect();
-    assert_eq!(lines[0], raytree::bench::report::CSV_HEADER);
+    assert_eq!(lines[0], raytree_cli::bench::report::CSV_HEADER);
     assert_eq!(lines.len(), 1 + 2 * 6);
     for l in &lines[1..] {
         let f: Vec<&str> = l.split(',').collect();

@@ -14,15 +14,15 @@
 //! time is the mean over its frames. Ratios are to the uncompressed BVH in
 //! the same run.
 
-use crate::accel::dst::DstStats;
-use crate::accel::htree::HtreeStats;
-use crate::accel::{Accel, Built, StructureKind, TraversalKind, WithAccel};
-use crate::bvh::{BuildOptions, BuildStats, Bvh};
-use crate::error::Result;
-use crate::render::heatmap::Measure;
-use crate::render::{render, render_uncounted, Image, Integrator, PathSettings, Rendered};
-use crate::scene::Scene;
-use crate::stats::{PerRay, MIB};
+use raytree::accel::dst::DstStats;
+use raytree::accel::htree::HtreeStats;
+use raytree::accel::{Accel, Built, StructureKind, TraversalKind, WithAccel};
+use raytree::bvh::{BuildOptions, BuildStats, Bvh};
+use raytree::error::Result;
+use raytree::render::heatmap::Measure;
+use raytree::render::{render, render_uncounted, Image, Integrator, PathSettings, Rendered};
+use raytree::scene::Scene;
+use raytree::stats::{PerRay, MIB};
 use serde::Serialize;
 
 /// The structures of Table 1, in the paper's order.

@@ -9,9 +9,9 @@
 //! to let both use the host's vector units).
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use raytree::bench::peers;
 use raytree::prelude::*;
 use raytree::render::rayset;
+use raytree_cli::bench::peers;
 use std::hint::black_box;
 use std::time::Duration;
 

@@ -2,10 +2,10 @@
 
 use super::common::{self, SceneArgs, SceneReport, StructureArgs};
 use super::out::say;
+use crate::bench::machine::Machine;
 use clap::{Args, ValueEnum};
 use rayon::prelude::*;
 use raytree::accel::{Accel, StructureInfo, WithAccel};
-use raytree::bench::machine::Machine;
 use raytree::bvh::BuildStats;
 use raytree::error::Result;
 use raytree::geometry::{Hit, Ray};

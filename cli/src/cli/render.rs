@@ -2,9 +2,9 @@
 
 use super::common::{self, CameraArgs, SceneArgs, SceneReport, StructureArgs};
 use super::out::say;
+use crate::bench::machine::Machine;
 use clap::{Args, ValueEnum};
 use raytree::accel::{Accel, StructureInfo, WithAccel};
-use raytree::bench::machine::Machine;
 use raytree::bvh::BuildStats;
 use raytree::error::{Error, Result};
 use raytree::render::heatmap::{HeatmapInfo, Measure};

@@ -18,14 +18,14 @@ pub mod embree;
 #[cfg(feature = "obvhs")]
 pub mod obvhs;
 
-use crate::accel::{Accel, BinaryBvh};
-use crate::bvh::{BuildOptions, Bvh};
-use crate::error::Result;
-use crate::geometry::Ray;
-use crate::render::rayset;
-use crate::scene::Scene;
-use crate::stats::NoStats;
 use rayon::prelude::*;
+use raytree::accel::{Accel, BinaryBvh};
+use raytree::bvh::{BuildOptions, Bvh};
+use raytree::error::Result;
+use raytree::geometry::Ray;
+use raytree::render::rayset;
+use raytree::scene::Scene;
+use raytree::stats::NoStats;
 use serde::Serialize;
 use std::time::Instant;
 

@@ -2,9 +2,9 @@
 //! contender built into this raytree traces them and answers as raytree's
 //! BVH does.
 
-use raytree::bench::peers::{self, Options, RaySets};
 use raytree::prelude::*;
 use raytree::render::{render, Integrator, PathSettings};
+use raytree_cli::bench::peers::{self, Options, RaySets};
 
 #[test]
 fn path_rays_are_the_path_integrators_bounce_rays() {

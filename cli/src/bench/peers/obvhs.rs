@@ -5,13 +5,13 @@
 //! triangles answer alike and only trees and traversals differ.
 
 use super::Contender;
-use crate::bvh::{Bvh, NodeKind};
-use crate::geometry::{Ray, Triangle};
-use crate::scene::Scene;
 use obvhs::bvh2::{node::Bvh2Node, Bvh2};
 use obvhs::cwbvh::CwBvh;
 use obvhs::ray::RayHit;
 use obvhs::BvhBuildParams;
+use raytree::bvh::{Bvh, NodeKind};
+use raytree::geometry::{Ray, Triangle};
+use raytree::scene::Scene;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -28,7 +28,7 @@ pub fn triangles(scene: &Scene) -> Vec<obvhs::triangle::Triangle> {
         .collect()
 }
 
-fn aabb(b: &crate::geometry::Aabb) -> obvhs::aabb::Aabb {
+fn aabb(b: &raytree::geometry::Aabb) -> obvhs::aabb::Aabb {
     obvhs::aabb::Aabb::new(b.min.into(), b.max.into())
 }
 
