@@ -158,6 +158,47 @@ pub(super) struct EyeSample {
     pub rng: Pcg32,
 }
 
+/// Eye ray `sample` of pixel (`x`, `y`) of a `w`×`h` image in the form of
+/// `s`, and the sample's random stream after drawing it.
+pub(crate) fn eye_ray_of(
+    scene: &crate::scene::Scene,
+    s: &AoSettings,
+    (x, y): (usize, usize),
+    (w, h): (usize, usize),
+    sample: u32,
+) -> (Ray, Pcg32) {
+    let mut rng = Pcg32::new((y * w + x) as u64, sample as u64);
+    let ray = eye_ray_sampled(
+        scene,
+        (x, y),
+        (w, h),
+        (sample, s.eye_rays),
+        s.sampling,
+        &mut rng,
+    );
+    let ray = match s.query {
+        AoQuery::Any => ray,
+        AoQuery::Closest => Ray::new(ray.origin(), ray.direction(), PAPER_TMIN, PAPER_EYE_TMAX),
+    };
+    (ray, rng)
+}
+
+/// Where the occlusion rays of an eye ray's `hit` start, and the unit
+/// normal facing the eye they spread about, in the form of `s`.
+pub(crate) fn ao_start(
+    scene: &crate::scene::Scene,
+    s: &AoSettings,
+    ray: &Ray,
+    hit: &crate::geometry::Hit,
+) -> (Vec3, Vec3) {
+    let n = facing_normal(scene, ray, hit);
+    let p = ray.at(hit.t);
+    match s.query {
+        AoQuery::Any => (offset_origin(p, n), n),
+        AoQuery::Closest => (p, n),
+    }
+}
+
 /// Traces eye ray `sample` of pixel (`x`, `y`).
 #[inline]
 pub(super) fn eye_sample<A: Accel, S: RaySink>(
@@ -169,29 +210,13 @@ pub(super) fn eye_sample<A: Accel, S: RaySink>(
     sample: u32,
     stats: &mut S,
 ) -> EyeSample {
-    let pixel = (y * ctx.width + x) as u64;
-    let mut rng = Pcg32::new(pixel, sample as u64);
-    let mut ray = eye_ray_sampled(
-        ctx.scene,
-        (x, y),
-        (ctx.width, ctx.height),
-        (sample, s.eye_rays),
-        s.sampling,
-        &mut rng,
-    );
-    if s.query == AoQuery::Closest {
-        ray = Ray::new(ray.origin(), ray.direction(), PAPER_TMIN, PAPER_EYE_TMAX);
-    }
+    let (ray, rng) = eye_ray_of(ctx.scene, s, (x, y), (ctx.width, ctx.height), sample);
     stats.ray();
     let mut facing = 0.0;
     let hit = accel.closest_hit(&ray, stats).map(|hit| {
-        let n = facing_normal(ctx.scene, &ray, &hit);
+        let (origin, n) = ao_start(ctx.scene, s, &ray, &hit);
         facing = n.dot(ray.direction().normalize()).abs();
-        let p = ray.at(hit.t);
-        match s.query {
-            AoQuery::Any => (offset_origin(p, n), n),
-            AoQuery::Closest => (p, n),
-        }
+        (origin, n)
     });
     EyeSample { hit, facing, rng }
 }
@@ -199,7 +224,7 @@ pub(super) fn eye_sample<A: Accel, S: RaySink>(
 /// Occlusion ray `k` of `s.ao_rays` from a hit at `origin` with unit normal
 /// `n`, in the form `s` asks for, drawing from `rng`.
 #[inline]
-pub(super) fn ao_ray(s: &AoSettings, origin: Vec3, n: Vec3, k: u32, rng: &mut Pcg32) -> Ray {
+pub(crate) fn ao_ray(s: &AoSettings, origin: Vec3, n: Vec3, k: u32, rng: &mut Pcg32) -> Ray {
     match (s.query, s.sampling) {
         // The default render's draws, bit for bit.
         (AoQuery::Any, Sampling::Independent) => {

@@ -64,9 +64,14 @@ impl Fov {
     pub fn is_valid(self, aspect: f32) -> bool {
         let a = self.degrees();
         let (ex, ey) = self.extents(aspect);
+        let scaled = match self {
+            Fov::Paper(a) => a / aspect,
+            _ => a,
+        };
         a.is_finite()
             && a > 0.0
             && a < 180.0
+            && scaled < 180.0
             && ex.is_finite()
             && ey.is_finite()
             && ex > 0.0
