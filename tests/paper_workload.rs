@@ -8,8 +8,7 @@ use rayon::prelude::*;
 use raytree::accel::{Built, WithAccel};
 use raytree::prelude::*;
 use raytree::render::{
-    rayset, render, render_ao_phased, AoQuery, AoSettings, Image, Integrator, Sampling,
-    PAPER_TMIN,
+    rayset, render, render_ao_phased, AoQuery, AoSettings, Image, Integrator, Sampling, PAPER_TMIN,
 };
 use raytree::scene::Fov;
 
@@ -129,7 +128,9 @@ fn the_paper_camera_gives_the_original_tracers_directions() {
             .ray((px / w) as f32, (py / h) as f32, (w / h) as f32)
             .direction();
         assert!((d3(got).iter().map(|c| c * c).sum::<f64>() - 1.0).abs() < 1e-6);
-        let err = sub(d3(got), want).iter().fold(0.0f64, |m, c| m.max(c.abs()));
+        let err = sub(d3(got), want)
+            .iter()
+            .fold(0.0f64, |m, c| m.max(c.abs()));
         worst = worst.max(err);
         assert!(err < 1e-6, "pixel ({px}, {py}): {got} against {want:?}");
     }
@@ -285,7 +286,9 @@ impl WithAccel for AoAgrees<'_> {
             .try_for_each(|(i, (r, &want))| {
                 let got = a.closest_hit(r, &mut NoStats);
                 if !common::same_closest(got, want, self.oracle, r) {
-                    return Err(format!("AO ray {i} {r:?}: closest {got:?}, oracle {want:?}"));
+                    return Err(format!(
+                        "AO ray {i} {r:?}: closest {got:?}, oracle {want:?}"
+                    ));
                 }
                 if let Some(h) = got {
                     if !(h.t >= PAPER_TMIN && h.t <= 32.0) {
@@ -386,7 +389,12 @@ fn every_traversal_renders_the_same_image_in_the_papers_form() {
                     ao: &s,
                     size: (w, h),
                 });
-                let what = format!("{query:?} / {} / {} / {}", k.name(), t.name(), builder.name());
+                let what = format!(
+                    "{query:?} / {} / {} / {}",
+                    k.name(),
+                    t.name(),
+                    builder.name()
+                );
                 assert!(plain == phased, "{what}: phased render differs");
                 match &reference {
                     None => reference = Some(plain),
@@ -439,6 +447,9 @@ fn the_paper_view_of_battlefield_hits_as_the_original_did() {
     }
     let original = (45.1e6 / (800.0 * 300.0 * 16.0) - 1.0) / 16.0;
     let share = hits as f64 / eye.len() as f64;
-    assert!((share - original).abs() < 0.005, "{share} against {original}");
+    assert!(
+        (share - original).abs() < 0.005,
+        "{share} against {original}"
+    );
     assert_eq!(back, 0);
 }

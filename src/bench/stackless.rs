@@ -325,3 +325,27 @@ pub fn markdown(r: &SceneResult) -> String {
     }
     s
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_paper_preset_runs_the_papers_form_and_view() {
+        assert_eq!(
+            Preset::Paper.form(),
+            (AoQuery::Closest, Sampling::Stratified)
+        );
+        assert_eq!(Preset::Quick.form(), (AoQuery::Any, Sampling::Independent));
+        let mut chess = Scene::builtin("chess:2000").unwrap();
+        let before = chess.camera;
+        assert!(!Preset::Quick.apply_view(&mut chess));
+        assert_eq!(chess.camera, before);
+        assert!(Preset::Paper.apply_view(&mut chess));
+        assert_eq!(chess.camera, Camera::stackless_chess());
+        assert_eq!(Preset::Paper.size(&chess), (800, 300));
+        let mut hair = Scene::builtin("hairball:2000").unwrap();
+        assert!(!Preset::Paper.apply_view(&mut hair));
+        assert_eq!(Preset::Paper.size(&hair), (512, 512));
+    }
+}

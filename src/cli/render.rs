@@ -239,7 +239,7 @@ fn run_in_pool(args: &RenderArgs) -> Result<()> {
                 if file {
                     s = AoSettings::preview(radius);
                 } else {
-                    (s.eye_rays, s.ao_rays) = (4, 8);
+                    s = AoSettings::plain(4, 8, radius);
                 }
             }
             s.eye_rays = args.eye_rays.unwrap_or(s.eye_rays);
