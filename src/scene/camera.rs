@@ -183,7 +183,14 @@ impl Camera {
         let forward = (self.target - self.eye).normalize();
         let mut right = forward.cross(self.up);
         // sin² of the angle between the view and up below ~1e-10.
-        if !(right.length_squared() > 1e-10 * self.up.length_squared()) {
+        // Not greater, or NaN: the fallback.
+        let valid = matches!(
+            right
+                .length_squared()
+                .partial_cmp(&(1e-10 * self.up.length_squared())),
+            Some(std::cmp::Ordering::Greater)
+        );
+        if !valid {
             let f = forward.abs();
             let axis = if f.z <= f.x && f.z <= f.y {
                 Vec3::Z
