@@ -5,7 +5,8 @@
 use raytree::accel::{Built, StructureKind, TraversalKind, WithAccel};
 use raytree::prelude::*;
 use raytree::render::{
-    render, render_uncounted, AoSettings, Image, Integrator, PathSettings, Rendered,
+    render, render_uncounted, AoQuery, AoSettings, Image, Integrator, PathSettings, Rendered,
+    Sampling,
 };
 use raytree::stats::Tally;
 
@@ -38,6 +39,8 @@ fn images_are_identical_for_every_structure_traversal_and_thread_count() {
             radius: 32.0,
             background: 1.0,
             facing: false,
+            query: AoQuery::Any,
+            sampling: Sampling::Independent,
         }),
         Integrator::Path(PathSettings::default()),
     ];
@@ -109,6 +112,8 @@ fn an_uncounted_render_traces_the_same_rays_and_counts_only_them() {
             radius: 32.0,
             background: 1.0,
             facing: false,
+            query: AoQuery::Any,
+            sampling: Sampling::Independent,
         }),
         Integrator::Path(PathSettings::default()),
     ];

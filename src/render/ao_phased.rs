@@ -1,5 +1,6 @@
 //! AO in two phases, as the stackless paper's tracer measures it: every eye
-//! ray first (closest hit), then every AO ray (any hit), each phase timed and
+//! ray first (closest hit), then every AO ray (in the form of
+//! [`AoSettings::query`]), each phase timed and
 //! counted on its own. The image equals [`super::render`]'s AO image bit for
 //! bit: the same samples, random streams and sums.
 //!
@@ -89,6 +90,7 @@ fn phased_with<A: Accel, S: RaySink + Default>(
                     samples.push(eye_sample(
                         accel,
                         &ctx,
+                        s,
                         p % width,
                         p / width,
                         sample,
@@ -154,13 +156,7 @@ mod tests {
         let scene = Scene::builtin("chess:3000").unwrap();
         let bvh = Bvh::build(&scene.triangles, &BuildOptions::sah());
         let b = BinaryBvh::from_bvh(&bvh, scene.triangles.clone()).unwrap();
-        let s = AoSettings {
-            eye_rays,
-            ao_rays,
-            radius: 30.0,
-            background: 1.0,
-            facing: false,
-        };
+        let s = AoSettings::plain(eye_rays, ao_rays, 30.0);
         (scene, b, s)
     }
 

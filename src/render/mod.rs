@@ -13,7 +13,7 @@ pub mod rayset;
 mod sampling;
 
 pub use self::image::{is_stdout, remove_unfinished_files, write_atomically, Image, ImageFormat};
-pub use ao::AoSettings;
+pub use ao::{AoQuery, AoSettings, Sampling, PAPER_EYE_TMAX, PAPER_TMIN};
 pub use ao_phased::{render_ao_phased, render_ao_phased_uncounted, Phase, PhasedAo};
 pub use path::PathSettings;
 

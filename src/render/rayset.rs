@@ -52,6 +52,39 @@ pub fn ao_rays<A: Accel>(
     rays
 }
 
+/// The rays the AO integrator traces for a `w`×`h` image with settings `s`,
+/// in their form (intervals, origins, sampling: see
+/// [`super::AoQuery`] and [`super::Sampling`]): per pixel, row by row, its
+/// `s.eye_rays` eye rays, and for each eye ray with a hit (found through
+/// `accel`) its `s.ao_rays` occlusion rays. Returns the eye rays and the
+/// occlusion rays apart, each eye ray with the index range of its own.
+#[allow(clippy::type_complexity)]
+pub fn ao_workload<A: Accel>(
+    scene: &Scene,
+    accel: &A,
+    s: &super::AoSettings,
+    w: usize,
+    h: usize,
+) -> (Vec<(Ray, std::ops::Range<usize>)>, Vec<Ray>) {
+    let (mut eye, mut ao) = (Vec::new(), Vec::new());
+    for y in 0..h {
+        for x in 0..w {
+            for sample in 0..s.eye_rays {
+                let (ray, mut rng) = super::ao::eye_ray_of(scene, s, (x, y), (w, h), sample);
+                let first = ao.len();
+                if let Some(hit) = accel.closest_hit(&ray, &mut NoStats) {
+                    let (origin, n) = super::ao::ao_start(scene, s, &ray, &hit);
+                    for k in 0..s.ao_rays {
+                        ao.push(super::ao::ao_ray(s, origin, n, k, &mut rng));
+                    }
+                }
+                eye.push((ray, first..ao.len()));
+            }
+        }
+    }
+    (eye, ao)
+}
+
 /// The bounce rays of one path-traced frame of `w`×`h` pixels at 1 sample
 /// per pixel, up to `bounces` after each eye ray: the rays the path
 /// integrator traces after the eye rays, with its sampling, the hits found

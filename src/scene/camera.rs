@@ -1,23 +1,165 @@
 use crate::geometry::{Aabb, Ray};
 use glam::Vec3;
 
+/// The camera's field of view: which angle it gives, and how the image's
+/// other extent follows from it.
+///
+/// The image plane lies at distance 1 along the view; its half extents are
+/// `ex` across and `ey` down, and image point (`x`, `y`) in `[0,1]²` looks
+/// along `forward + right·ex·(2x−1) + up·ey·(1−2y)`.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+#[serde(tag = "kind", content = "degrees", rename_all = "kebab-case")]
+pub enum Fov {
+    /// The vertical angle in degrees, square pixels:
+    /// `ey = tan(angle/2)`, `ex = ey · width/height`.
+    Vertical(f32),
+    /// The horizontal angle in degrees, square pixels:
+    /// `ex = tan(angle/2)`, `ey = ex · height/width`.
+    Horizontal(f32),
+    /// The stackless paper's tracer (Barringer & Akenine-Möller 2013,
+    /// Section 4 and its supplemental code, `Camera::lookAt`): the angle in
+    /// degrees is horizontal, and the vertical extent scales the *angle* by
+    /// the image's height/width, so pixels are not square unless the image
+    /// is: `ex = tan(angle/2)`, `ey = tan(angle/2 · height/width)`. Its
+    /// 50° at 800×300 gives 50° across and about 18.75° down.
+    Paper(f32),
+}
+
+impl Fov {
+    /// The angle in degrees, whichever way it is measured.
+    pub fn degrees(self) -> f32 {
+        match self {
+            Fov::Vertical(a) | Fov::Horizontal(a) | Fov::Paper(a) => a,
+        }
+    }
+
+    /// The image plane's half extents `(ex, ey)` at distance 1 (tangents of
+    /// the half angles across and down) for an image of width/height
+    /// `aspect`.
+    pub fn extents(self, aspect: f32) -> (f32, f32) {
+        match self {
+            Fov::Vertical(a) => {
+                let h = (a.to_radians() * 0.5).tan();
+                (h * aspect, h)
+            }
+            Fov::Horizontal(a) => {
+                let w = (a.to_radians() * 0.5).tan();
+                (w, w / aspect)
+            }
+            Fov::Paper(a) => {
+                // As the original: the half angle scaled by height/width in
+                // single precision, the tangent taken in double precision.
+                let rad = std::f64::consts::PI / 180.0;
+                let ex = ((0.5 * a) as f64 * rad).tan() as f32;
+                let ey = ((0.5 * a * (1.0 / aspect)) as f64 * rad).tan() as f32;
+                (ex, ey)
+            }
+        }
+    }
+
+    /// Whether a camera can have this angle on an image of width/height
+    /// `aspect`: the angle finite and in (0, 180) degrees, and both extents
+    /// finite and positive (a [`Fov::Paper`] angle scaled by a tall image's
+    /// height/width can reach 180°).
+    pub fn is_valid(self, aspect: f32) -> bool {
+        let a = self.degrees();
+        let (ex, ey) = self.extents(aspect);
+        let scaled = match self {
+            Fov::Paper(a) => a / aspect,
+            _ => a,
+        };
+        a.is_finite()
+            && a > 0.0
+            && a < 180.0
+            && scaled < 180.0
+            && ex.is_finite()
+            && ey.is_finite()
+            && ex > 0.0
+            && ey > 0.0
+    }
+}
+
 /// A pinhole camera.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
+    /// Position, in scene units.
     pub eye: Vec3,
+    /// The point the view's centre passes through, in scene units.
     pub target: Vec3,
+    /// The image's up direction (any length but zero).
     pub up: Vec3,
-    /// Vertical field of view in degrees.
-    pub fov_y: f32,
+    /// The field of view and how it maps to the image.
+    pub fov: Fov,
+}
+
+impl serde::Serialize for Camera {
+    fn serialize<S: serde::Serializer>(&self, ser: S) -> Result<S::Ok, S::Error> {
+        #[derive(serde::Serialize)]
+        struct View {
+            eye: [f32; 3],
+            target: [f32; 3],
+            up: [f32; 3],
+            fov: Fov,
+        }
+        View {
+            eye: self.eye.to_array(),
+            target: self.target.to_array(),
+            up: self.up.to_array(),
+            fov: self.fov,
+        }
+        .serialize(ser)
+    }
+}
+
+impl std::fmt::Display for Fov {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Fov::Vertical(a) => write!(f, "{a}° vertical, square pixels"),
+            Fov::Horizontal(a) => write!(f, "{a}° horizontal, square pixels"),
+            Fov::Paper(a) => write!(
+                f,
+                "{a}° horizontal, the stackless paper's non-square pixels"
+            ),
+        }
+    }
+}
+
+impl std::fmt::Display for Camera {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let v = |v: Vec3| format!("({}, {}, {})", v.x, v.y, v.z);
+        write!(
+            f,
+            "eye {} towards {}, up {}, {}",
+            v(self.eye),
+            v(self.target),
+            v(self.up),
+            self.fov
+        )
+    }
 }
 
 impl Camera {
+    /// A camera with square pixels and a vertical field of view of `fov_y`
+    /// degrees.
     pub fn new(eye: Vec3, target: Vec3, up: Vec3, fov_y: f32) -> Self {
         Camera {
             eye,
             target,
             up,
-            fov_y,
+            fov: Fov::Vertical(fov_y),
+        }
+    }
+
+    /// The stackless paper's camera for its CHESS scene (Barringer &
+    /// Akenine-Möller 2013, Section 4; the supplemental tracer's `main.cpp`):
+    /// eye (300, 100, 300) towards (0, 10, 0), up +Y, [`Fov::Paper`] of 50°
+    /// (horizontal, non-square pixels; 800×300 in the paper).
+    pub fn stackless_chess() -> Self {
+        Camera {
+            eye: Vec3::new(300.0, 100.0, 300.0),
+            target: Vec3::new(0.0, 10.0, 0.0),
+            up: Vec3::Y,
+            fov: Fov::Paper(50.0),
         }
     }
 
@@ -41,7 +183,14 @@ impl Camera {
         let forward = (self.target - self.eye).normalize();
         let mut right = forward.cross(self.up);
         // sin² of the angle between the view and up below ~1e-10.
-        if !(right.length_squared() > 1e-10 * self.up.length_squared()) {
+        // Not greater, or NaN: the fallback.
+        let valid = matches!(
+            right
+                .length_squared()
+                .partial_cmp(&(1e-10 * self.up.length_squared())),
+            Some(std::cmp::Ordering::Greater)
+        );
+        if !valid {
             let f = forward.abs();
             let axis = if f.z <= f.x && f.z <= f.y {
                 Vec3::Z
@@ -57,16 +206,29 @@ impl Camera {
     }
 
     /// The ray through image point (`x`, `y`) in `[0,1]²`, `y` down, for an
-    /// image of width/height `aspect`. Directions are normalized.
+    /// image of width/height `aspect`: the direction
+    /// `forward + right·ex·(2x−1) + up·ey·(1−2y)` normalized, with `(ex, ey)`
+    /// from [`Fov::extents`]. Pixel `(i, j)` of a `w`×`h` image covers
+    /// `x` in `[i/w, (i+1)/w)` and `y` in `[j/h, (j+1)/h)`, as in the stackless
+    /// paper's tracer (its pixel `px` in `[0, w)` is `x·w`).
     ///
     /// A camera whose `eye` equals its `target`, or with a non-finite
     /// component, gives rays that are not valid: every structure answers
     /// them with a miss (see [`Ray::new`]).
     pub fn ray(&self, x: f32, y: f32, aspect: f32) -> Ray {
         let (forward, right, up) = self.basis();
-        let h = (self.fov_y.to_radians() * 0.5).tan();
-        let px = (2.0 * x - 1.0) * h * aspect;
-        let py = (1.0 - 2.0 * y) * h;
+        let (px, py) = match self.fov {
+            // The same operations as before the other kinds existed, so that
+            // images stay bit-identical.
+            Fov::Vertical(a) => {
+                let h = (a.to_radians() * 0.5).tan();
+                ((2.0 * x - 1.0) * h * aspect, (1.0 - 2.0 * y) * h)
+            }
+            fov => {
+                let (ex, ey) = fov.extents(aspect);
+                ((2.0 * x - 1.0) * ex, (1.0 - 2.0 * y) * ey)
+            }
+        };
         Ray::infinite(self.eye, (forward + right * px + up * py).normalize())
     }
 }

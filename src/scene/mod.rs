@@ -7,7 +7,7 @@ mod obj;
 mod ply;
 pub mod procedural;
 
-pub use camera::Camera;
+pub use camera::{Camera, Fov};
 pub use mesh::Mesh;
 
 use crate::error::{Error, Result};
@@ -50,6 +50,29 @@ impl Scene {
         let camera = Camera::framing(&mesh.bounds());
         Ok(Scene::new(path.display().to_string(), mesh, camera))
     }
+
+    /// Whether this is the stackless paper's CHESS scene: the file
+    /// `battlefield.obj` (the paper's own mesh, recognised by its file name)
+    /// or the built-in `chess` (any size), whose board has the same
+    /// coordinates.
+    pub fn is_stackless_chess(&self) -> bool {
+        self.name.split(':').next() == Some("chess")
+            || Path::new(&self.name).file_name() == Some("battlefield.obj".as_ref())
+    }
+
+    /// Gives a stackless CHESS scene ([`Self::is_stackless_chess`]) the
+    /// paper's camera, [`Camera::stackless_chess`]; returns whether it did.
+    pub fn use_stackless_view(&mut self) -> bool {
+        let chess = self.is_stackless_chess();
+        if chess {
+            self.camera = Camera::stackless_chess();
+        }
+        chess
+    }
+
+    /// The AO radius of the stackless paper's CHESS renders, in scene units
+    /// (Section 4; supplemental `Tracer::sampleAO`).
+    pub const STACKLESS_CHESS_AO_RADIUS: f32 = 32.0;
 
     /// A built-in scene by `name` or `name:size`, size being the approximate
     /// triangle count: see [`procedural::BUILTIN`].

@@ -17,8 +17,10 @@
 use raytree::accel::{Built, SparseBvh, StructureKind, TraversalKind, WithAccel};
 use raytree::bvh::{BuildOptions, BuildStats, Bvh};
 use raytree::error::Result;
-use raytree::render::{render_ao_phased, render_ao_phased_uncounted, AoSettings, Phase, PhasedAo};
-use raytree::scene::Scene;
+use raytree::render::{
+    render_ao_phased, render_ao_phased_uncounted, AoQuery, AoSettings, Phase, PhasedAo, Sampling,
+};
+use raytree::scene::{Camera, Scene};
 use raytree::stats::PerRay;
 use raytree::traversal::state_bytes;
 use serde::Serialize;
@@ -28,17 +30,23 @@ use std::sync::Arc;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, clap::ValueEnum)]
 #[serde(rename_all = "lowercase")]
 pub enum Preset {
-    /// 200×75 (chess) or 128×128, 4 eye rays per pixel, 4 AO rays per hit.
+    /// 200×75 (chess) or 128×128, 4 eye rays per pixel, 4 AO rays per hit,
+    /// in the default render's form (any-hit AO rays, independent samples)
+    /// and each scene's own camera.
     Quick,
-    /// The paper's: 800×300 (chess) or 512×512, 16 eye rays per pixel and 16
-    /// AO rays per hit (256 per pixel).
+    /// The paper's (Section 4): 800×300 (chess) or 512×512, 16 eye rays per
+    /// pixel and 16 AO rays per hit (256 per pixel), in its tracer's form:
+    /// closest-hit AO rays from the hit point, 4×4 stratified eye jitter and
+    /// AO directions ([`AoSettings::paper`]); the CHESS scenes (built-in
+    /// `chess`, `battlefield.obj`) seen through the paper's camera
+    /// ([`Camera::stackless_chess`]) with an AO radius of 32.
     Paper,
 }
 
 impl Preset {
     /// Image size for a scene: the chess scene has the paper's 8:3 frame.
     pub fn size(self, scene: &Scene) -> (usize, usize) {
-        let chess = scene.name.starts_with("chess");
+        let chess = scene.is_stackless_chess();
         match (self, chess) {
             (Preset::Quick, true) => (200, 75),
             (Preset::Quick, false) => (128, 128),
@@ -52,6 +60,20 @@ impl Preset {
             Preset::Quick => (4, 4),
             Preset::Paper => (16, 16),
         }
+    }
+
+    /// The preset's form of the AO workload: the query and the sampling.
+    pub fn form(self) -> (AoQuery, Sampling) {
+        match self {
+            Preset::Quick => (AoQuery::Any, Sampling::Independent),
+            Preset::Paper => (AoQuery::Closest, Sampling::Stratified),
+        }
+    }
+
+    /// Sets the preset's view on `scene`: for [`Preset::Paper`], the paper's
+    /// camera on its CHESS scenes. Returns whether the camera changed.
+    pub fn apply_view(self, scene: &mut Scene) -> bool {
+        self == Preset::Paper && scene.use_stackless_view()
     }
 }
 
@@ -99,6 +121,9 @@ pub struct SceneResult {
     pub bvh: BuildStats,
     pub width: usize,
     pub height: usize,
+    /// The camera the rows rendered through.
+    pub camera: Camera,
+    /// The AO workload, its form (`query`, `sampling`) included.
     pub ao: AoSettings,
     pub rows: Vec<Row>,
 }
@@ -112,8 +137,13 @@ pub struct Options {
     pub repeats: usize,
     /// AO radius as a fraction of the scene diagonal (32 units on chess).
     pub radius_fraction: f32,
-    /// An AO radius in scene units, overriding the fraction.
+    /// An AO radius in scene units, overriding the fraction (and the
+    /// paper preset's 32 on its CHESS scenes).
     pub radius: Option<f32>,
+    /// How AO rays are traced [default: the preset's, [`Preset::form`]].
+    pub query: Option<AoQuery>,
+    /// How eye rays and AO directions are sampled [default: the preset's].
+    pub sampling: Option<Sampling>,
 }
 
 /// One phased AO render: counted, or timed with the counters compiled out.
@@ -159,14 +189,17 @@ pub fn run_scene(scene: &Scene, opts: &Options, tick: &dyn Fn()) -> Result<Scene
     let bvh = Bvh::build(&scene.triangles, &opts.build);
     let (w, h) = opts.preset.size(scene);
     let (eye_rays, ao_rays) = opts.preset.rays();
+    let (query, sampling) = opts.preset.form();
+    let paper_chess = opts.preset == Preset::Paper && scene.is_stackless_chess();
+    let radius = match (opts.radius, paper_chess) {
+        (Some(r), _) => r,
+        (None, true) => Scene::STACKLESS_CHESS_AO_RADIUS,
+        (None, false) => opts.radius_fraction * scene.mesh.bounds().extent().length(),
+    };
     let ao = AoSettings {
-        eye_rays,
-        ao_rays,
-        radius: opts
-            .radius
-            .unwrap_or(opts.radius_fraction * scene.mesh.bounds().extent().length()),
-        background: 1.0,
-        facing: false,
+        query: opts.query.unwrap_or(query),
+        sampling: opts.sampling.unwrap_or(sampling),
+        ..AoSettings::plain(eye_rays, ao_rays, radius)
     };
     let sparse = Arc::new(SparseBvh::from_bvh(&bvh, scene.triangles.clone())?);
     let mut built = Vec::new();
@@ -255,6 +288,7 @@ pub fn run_scene(scene: &Scene, opts: &Options, tick: &dyn Fn()) -> Result<Scene
         bvh: bvh.stats.clone(),
         width: w,
         height: h,
+        camera: scene.camera,
         ao,
         rows,
     })
@@ -263,8 +297,8 @@ pub fn run_scene(scene: &Scene, opts: &Options, tick: &dyn Fn()) -> Result<Scene
 /// The Markdown table of one scene.
 pub fn markdown(r: &SceneResult) -> String {
     let mut s = format!(
-        "### {} ({} triangles; {} BVH, depth {}, {} nodes; {}×{}, {} eye rays/pixel, {} AO rays/hit, radius {:.3})\n\n",
-        r.scene, r.triangles, r.bvh.builder, r.bvh.depth, r.bvh.nodes, r.width, r.height, r.ao.eye_rays, r.ao.ao_rays, r.ao.radius
+        "### {} ({} triangles; {} BVH, depth {}, {} nodes; {}×{}, {} eye rays/pixel, {} AO rays/hit, radius {:.3}; {}; camera {})\n\n",
+        r.scene, r.triangles, r.bvh.builder, r.bvh.depth, r.bvh.nodes, r.width, r.height, r.ao.eye_rays, r.ao.ao_rays, r.ao.radius, r.ao.form(), r.camera
     );
     s += "| algorithm | layout | state B | threads | time s | ratio | eye s | AO s | eye Mrays/s | AO Mrays/s | nodes/ray eye | nodes/ray AO | box tests/ray AO | tris/ray AO | same image |\n";
     s += "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|\n";
@@ -290,4 +324,28 @@ pub fn markdown(r: &SceneResult) -> String {
         );
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_paper_preset_runs_the_papers_form_and_view() {
+        assert_eq!(
+            Preset::Paper.form(),
+            (AoQuery::Closest, Sampling::Stratified)
+        );
+        assert_eq!(Preset::Quick.form(), (AoQuery::Any, Sampling::Independent));
+        let mut chess = Scene::builtin("chess:2000").unwrap();
+        let before = chess.camera;
+        assert!(!Preset::Quick.apply_view(&mut chess));
+        assert_eq!(chess.camera, before);
+        assert!(Preset::Paper.apply_view(&mut chess));
+        assert_eq!(chess.camera, Camera::stackless_chess());
+        assert_eq!(Preset::Paper.size(&chess), (800, 300));
+        let mut hair = Scene::builtin("hairball:2000").unwrap();
+        assert!(!Preset::Paper.apply_view(&mut hair));
+        assert_eq!(Preset::Paper.size(&hair), (512, 512));
+    }
 }

@@ -8,7 +8,7 @@ use raytree::bvh::{BuildOptions, BuildStats, Builder, Bvh};
 use raytree::error::Result;
 use raytree::names::Named;
 use raytree::prelude::Vec3;
-use raytree::scene::{Camera, Scene};
+use raytree::scene::{Camera, Fov, Scene};
 use serde::Serialize;
 use std::path::Path;
 
@@ -42,9 +42,14 @@ pub struct CameraArgs {
     /// +y for files].
     #[arg(long, value_parser = parse_up, allow_hyphen_values = true)]
     pub up: Option<Vec3>,
-    /// Vertical field of view in degrees.
-    #[arg(long, value_parser = parse_fov)]
+    /// VERTICAL field of view in degrees, in (0, 180), with square pixels
+    /// [default: the scene's camera's; with render --paper on the stackless
+    /// paper's CHESS scenes, its camera: 50° horizontal, non-square pixels].
+    #[arg(long, value_parser = parse_fov, conflicts_with = "hfov")]
     pub fov: Option<f32>,
+    /// HORIZONTAL field of view in degrees, in (0, 180), with square pixels.
+    #[arg(long, value_parser = parse_fov)]
+    pub hfov: Option<f32>,
 }
 
 impl CameraArgs {
@@ -53,13 +58,33 @@ impl CameraArgs {
         cam.eye = self.eye.unwrap_or(cam.eye);
         cam.target = self.look_at.unwrap_or(cam.target);
         cam.up = self.up.unwrap_or(cam.up);
-        cam.fov_y = self.fov.unwrap_or(cam.fov_y);
+        if let Some(a) = self.fov {
+            cam.fov = Fov::Vertical(a);
+        }
+        if let Some(a) = self.hfov {
+            cam.fov = Fov::Horizontal(a);
+        }
         if cam.eye == cam.target {
             return Err(raytree::error::Error::Invalid(
                 "--eye and --look-at are the same point".into(),
             ));
         }
         Ok(())
+    }
+}
+
+/// Checks that `cam`'s field of view works on a `width`×`height` image: a
+/// stackless-paper angle scaled by a tall image's height/width can reach
+/// 180°.
+pub fn check_fov(cam: &Camera, width: usize, height: usize) -> Result<()> {
+    if cam.fov.is_valid(width as f32 / height as f32) {
+        Ok(())
+    } else {
+        Err(raytree::error::Error::Invalid(format!(
+            "the field of view ({}) does not fit a {width}×{height} image: \
+             its angles must lie in (0, 180) degrees",
+            cam.fov
+        )))
     }
 }
 
@@ -86,8 +111,9 @@ pub fn parse_up(s: &str) -> std::result::Result<Vec3, String> {
     }
 }
 
+/// An angle in degrees in (0, 180): not NaN, not infinite.
 pub fn parse_fov(s: &str) -> std::result::Result<f32, String> {
-    let f: f32 = s.parse().map_err(|e| format!("{e}"))?;
+    let f: f32 = s.trim().parse().map_err(|e| format!("'{s}': {e}"))?;
     if f > 0.0 && f < 180.0 {
         Ok(f)
     } else {

@@ -8,8 +8,8 @@ use raytree::accel::{Accel, StructureInfo, WithAccel};
 use raytree::bvh::BuildStats;
 use raytree::error::{Error, Result};
 use raytree::render::heatmap::{HeatmapInfo, Measure};
-use raytree::render::{self, AoSettings, Integrator, PathSettings, Rendered};
-use raytree::scene::Scene;
+use raytree::render::{self, AoQuery, AoSettings, Integrator, PathSettings, Rendered, Sampling};
+use raytree::scene::{Camera, Scene};
 use raytree::stats::{Counters, PerRay};
 use serde::Serialize;
 use std::path::PathBuf;
@@ -22,14 +22,29 @@ pub struct RenderArgs {
     camera: CameraArgs,
     #[command(flatten)]
     structure: StructureArgs,
-    /// Integrator: ambient occlusion (any-hit AO rays) or diffuse path tracing.
+    /// Integrator: ambient occlusion or diffuse path tracing.
     #[arg(long, short = 'i', value_enum, default_value_t = IntegratorArg::Ao)]
     integrator: IntegratorArg,
-    /// Use the papers' settings: for ao, 16 eye rays per pixel and 16 AO rays
-    /// at each eye-ray hit (256 AO rays per pixel) at 800×300 (chess) or
-    /// 512×512; for path, 1024×1024 at 1 sample per pixel.
+    /// Use the papers' settings: for ao, the stackless paper's workload as
+    /// its tracer ran it: 16 eye rays per pixel on a 4×4 stratified grid and
+    /// 16 closest-hit AO rays at each eye-ray hit (256 AO rays per pixel),
+    /// at 800×300 (chess) or 512×512; on its CHESS scenes (the built-in
+    /// chess, a file named battlefield.obj) also its camera (eye
+    /// 300,100,300 towards 0,10,0, 50° horizontal with its non-square
+    /// pixels) and AO radius 32. For path, 1024×1024 at 1 sample per pixel.
     #[arg(long)]
     paper: bool,
+    /// AO: how occlusion rays are traced. any: any-hit queries from the hit
+    /// point moved off the surface; closest: the stackless paper's tracer's
+    /// closest-hit queries from the hit point, t in [0.001, radius]
+    /// [default: any; --paper: closest].
+    #[arg(long, value_parser = common::named::<AoQuery>())]
+    ao_query: Option<AoQuery>,
+    /// AO: how eye rays are placed in the pixel and AO directions spread.
+    /// stratified: one sample per cell of a k×k grid when the count is k²
+    /// (independent otherwise) [default: independent; --paper: stratified].
+    #[arg(long, value_parser = common::named::<Sampling>())]
+    sampling: Option<Sampling>,
     /// Image width in pixels [default: ao 400 (chess) or 256, path 512;
     /// with --paper as above].
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16384))]
@@ -85,7 +100,8 @@ pub struct RenderArgs {
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum IntegratorArg {
-    /// Ambient occlusion: eye rays, then any-hit occlusion rays at each hit.
+    /// Ambient occlusion: eye rays, then occlusion rays at each hit
+    /// (any-hit, or closest-hit as the stackless paper's tracer: --ao-query).
     Ao,
     /// Diffuse path tracing: closest-hit rays, up to --bounces bounces.
     Path,
@@ -98,8 +114,10 @@ struct RenderReport {
     bvh: BuildStats,
     structure: StructureInfo,
     integrator: IntegratorArg,
+    /// The AO workload, its form (`query`, `sampling`) included.
     ao: Option<AoSettings>,
     path: Option<PathSettings>,
+    camera: Camera,
     width: usize,
     height: usize,
     threads: usize,
@@ -185,12 +203,12 @@ pub fn run(args: RenderArgs) -> Result<()> {
 
 fn run_in_pool(args: &RenderArgs) -> Result<()> {
     let (mut scene, scene_report) = common::load_scene(&args.scene)?;
+    // The stackless paper's AO view of its CHESS scenes, before the options.
+    let paper_chess =
+        args.paper && args.integrator == IntegratorArg::Ao && scene.use_stackless_view();
     args.camera.apply(&mut scene.camera)?;
-    let (bvh, bvh_stats) = common::build_bvh(&scene, &args.scene);
-    let (built, info) = common::build_structure(&scene, &bvh, &args.structure)?;
-    drop(bvh);
 
-    let chess = scene.name.starts_with("chess");
+    let chess = scene.is_stackless_chess();
     let (w, h) = match (args.integrator, args.paper, chess) {
         (IntegratorArg::Ao, false, true) => (400, 150),
         (IntegratorArg::Ao, false, false) => (256, 256),
@@ -201,12 +219,15 @@ fn run_in_pool(args: &RenderArgs) -> Result<()> {
     };
     let width = args.width.map_or(w, |v| v as usize);
     let height = args.height.map_or(h, |v| v as usize);
+    common::check_fov(&scene.camera, width, height)?;
     let diagonal = scene.mesh.bounds().extent().length();
     let (ao, path) = match args.integrator {
         IntegratorArg::Ao => {
-            let radius = args
-                .ao_radius
-                .unwrap_or(AoSettings::RADIUS_FRACTION * diagonal);
+            let radius = args.ao_radius.unwrap_or(if paper_chess {
+                Scene::STACKLESS_CHESS_AO_RADIUS
+            } else {
+                AoSettings::RADIUS_FRACTION * diagonal
+            });
             // A user's mesh (a file, not a built-in scene) gets the preview
             // settings unless --paper asks for the paper's: its silhouette
             // against a dark background and its shape by facing ratio.
@@ -218,11 +239,13 @@ fn run_in_pool(args: &RenderArgs) -> Result<()> {
                 if file {
                     s = AoSettings::preview(radius);
                 } else {
-                    (s.eye_rays, s.ao_rays) = (4, 8);
+                    s = AoSettings::plain(4, 8, radius);
                 }
             }
             s.eye_rays = args.eye_rays.unwrap_or(s.eye_rays);
             s.ao_rays = args.ao_rays.unwrap_or(s.ao_rays);
+            s.query = args.ao_query.unwrap_or(s.query);
+            s.sampling = args.sampling.unwrap_or(s.sampling);
             (Some(s), None)
         }
         IntegratorArg::Path => {
@@ -239,6 +262,9 @@ fn run_in_pool(args: &RenderArgs) -> Result<()> {
         (_, Some(s)) => Integrator::Path(s.clone()),
         _ => unreachable!(),
     };
+    let (bvh, bvh_stats) = common::build_bvh(&scene, &args.scene);
+    let (built, info) = common::build_structure(&scene, &bvh, &args.structure)?;
+    drop(bvh);
     let rendered = built.with(RenderWith {
         scene: &scene,
         integrator: &integrator,
@@ -262,6 +288,7 @@ fn run_in_pool(args: &RenderArgs) -> Result<()> {
         integrator: args.integrator,
         ao,
         path,
+        camera: scene.camera,
         width,
         height,
         threads: rayon::current_num_threads(),
@@ -310,8 +337,11 @@ fn print_report(r: &RenderReport) {
     );
     let what = match (&r.ao, &r.path) {
         (Some(a), _) => format!(
-            "ao, {} eye rays per pixel, {} AO rays per hit, radius {}",
-            a.eye_rays, a.ao_rays, a.radius
+            "ao, {} eye rays per pixel, {} AO rays per hit, radius {} ({})",
+            a.eye_rays,
+            a.ao_rays,
+            a.radius,
+            a.form()
         ),
         (_, Some(p)) => format!("path, {} spp, {} bounces", p.samples, p.bounces),
         _ => String::new(),
@@ -323,6 +353,7 @@ fn print_report(r: &RenderReport) {
         r.render_seconds,
         r.threads,
     );
+    say!("camera     {}", r.camera);
     say!("rays       {} ({:.2} Mrays/s)", r.rays, r.mrays_per_second);
     say!(
         "per ray    {:.2} nodes, {:.2} plane tests, {:.2} triangle tests",

@@ -161,7 +161,11 @@ pub fn scene(target_triangles: usize) -> Scene {
             );
         }
     }
-    // The paper's view: eye (300, 100, 300) towards (0, 10, 0), 50 degrees.
+    // The default view: the paper's eye (300, 100, 300) and target
+    // (0, 10, 0), but 50 degrees VERTICAL with square pixels, which at
+    // 800×300 is about 102° wide; `render --paper` and `bench stackless
+    // --preset paper` use the paper's own camera instead
+    // (`Camera::stackless_chess`: 50° horizontal, non-square pixels).
     let camera = Camera::new(
         Vec3::new(300.0, 100.0, 300.0),
         Vec3::new(0.0, 10.0, 0.0),
