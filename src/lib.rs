@@ -15,6 +15,21 @@
 //! let hit = layout.closest_hit(&ray, &mut NoStats);
 //! assert_eq!(hit, BruteForce::new(scene.triangles.clone()).closest_hit(&ray, &mut NoStats));
 //! ```
+//!
+//! A structure chosen by name at run time traces batches in parallel
+//! through [`accel::Tracer`] (see also `examples/batch.rs`):
+//!
+//! ```
+//! use raytree::prelude::*;
+//! let scene = Scene::from_spec("chess:2000").unwrap();
+//! let bvh = Bvh::build(&scene.triangles, &BuildOptions::sah());
+//! let tracer = raytree::accel::tracer("bvh/laine-4", &bvh, scene.triangles.clone()).unwrap();
+//! let rays: Vec<Ray> = (0..1000).map(|i| scene.camera.ray(i as f32 / 1000.0, 0.6, 1.0)).collect();
+//! let (mut hits, mut occluded) = (vec![None; rays.len()], vec![false; rays.len()]);
+//! tracer.intersect(&rays, &mut hits, None).unwrap();
+//! tracer.occluded(&rays, &mut occluded, None).unwrap();
+//! assert!(hits.iter().zip(&occluded).all(|(h, &o)| h.is_some() == o));
+//! ```
 
 pub mod accel;
 pub mod bvh;

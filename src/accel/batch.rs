@@ -4,11 +4,14 @@
 //! parallel, while each structure's kernel stays monomorphized inside (the
 //! blanket implementation over [`Accel`] calls it with a concrete type).
 
-use super::{Accel, Built};
+use super::{Accel, Built, StructureKind, TraversalKind};
+use crate::bvh::Bvh;
 use crate::error::{Error, Result};
+use crate::geometry::Triangle;
 use crate::geometry::{Hit, Ray};
 use crate::stats::{Counters, NoStats};
 use rayon::prelude::*;
+use std::sync::Arc;
 
 /// Rays per parallel task: large enough that scheduling costs nothing
 /// against tracing, small enough to balance 2 to 64 threads.
@@ -144,6 +147,23 @@ impl<A: Accel> Tracer for A {
     }
 }
 
+/// Builds the structure named `name` from `bvh` as a trait object:
+/// a structure's name (`bvh`, `dst`, `cbvh`: see [`StructureKind`]), or
+/// `bvh/` and a traversal's name (`bvh/laine-4`: see [`TraversalKind`]);
+/// `bvh` alone traverses with STACK.
+///
+/// # Errors
+/// [`Error::Invalid`] for an unknown name (listing the known ones) or a
+/// traversal given to a structure that has its own; the structure's own
+/// conversion errors (a tree too deep for a layout).
+pub fn tracer(name: &str, bvh: &Bvh, triangles: Arc<[Triangle]>) -> Result<Box<dyn Tracer>> {
+    let (s, t) = name.split_once('/').unwrap_or((name, "stack"));
+    let invalid = |e: crate::names::UnknownName| Error::Invalid(e.to_string());
+    let structure: StructureKind = s.parse().map_err(invalid)?;
+    let traversal: TraversalKind = t.parse().map_err(invalid)?;
+    Ok(Built::new(structure, traversal, bvh, triangles)?.0.tracer())
+}
+
 impl Built {
     /// The structure as a trait object for batches.
     pub fn tracer(self) -> Box<dyn Tracer> {
@@ -229,6 +249,20 @@ mod tests {
             let mut short = vec![None; 3];
             assert!(tracer.intersect(&rays, &mut short, None).is_err());
         }
+        // By name.
+        let t = super::tracer("bvh/laine-2", &bvh, scene.triangles.clone()).unwrap();
+        assert_eq!(t.name(), "bvh");
+        assert_eq!(
+            super::tracer("dst", &bvh, scene.triangles.clone())
+                .unwrap()
+                .name(),
+            "dst"
+        );
+        let e = super::tracer("bvh/laine-3", &bvh, scene.triangles.clone())
+            .err()
+            .unwrap();
+        assert!(e.to_string().contains("unknown traversal 'laine-3'"), "{e}");
+        assert!(super::tracer("dst/sparse", &bvh, scene.triangles.clone()).is_err());
     }
 
     struct Single<'a>(&'a [Ray]);

@@ -14,7 +14,7 @@ pub(crate) mod own_box_node;
 mod select;
 pub mod sparse_bvh;
 
-pub use batch::Tracer;
+pub use batch::{tracer, Tracer};
 pub use bih::Bih;
 pub use binary_bvh::BinaryBvh;
 pub use brute::BruteForce;
