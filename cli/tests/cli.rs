@@ -3,28 +3,12 @@
 #[path = "../../tests/common/mod.rs"]
 mod common;
 
+mod support;
 use raytree::prelude::*;
 use raytree::rayfile;
 use std::path::Path;
 use std::process::{Command, Output};
-
-fn raytree(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_raytree"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("the binary runs")
-}
-
-fn ok(out: &Output) -> String {
-    assert!(
-        out.status.success(),
-        "exit {:?}: {}",
-        out.status.code(),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8(out.stdout.clone()).unwrap()
-}
+use support::*;
 
 /// Fails with `code`, one line on stderr that contains `needle`, and leaves
 /// the directory as it was (no partial output).

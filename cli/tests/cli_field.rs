@@ -2,16 +2,10 @@
 //! along its up axis, the default render of a user's mesh, progress for
 //! every long step.
 
+mod support;
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn raytree(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_raytree"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("the raytree binary runs")
-}
+use std::process::Command;
+use support::*;
 
 fn json(path: &Path) -> serde_json::Value {
     serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap()

@@ -2,26 +2,9 @@
 //! stackless paper's view and AO form under --paper, the form named in every
 //! report, and clear errors for angles that are not angles.
 
+mod support;
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn raytree(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_raytree"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("the binary runs")
-}
-
-fn ok(out: &Output) -> String {
-    assert!(
-        out.status.success(),
-        "exit {:?}: {}",
-        out.status.code(),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8(out.stdout.clone()).unwrap()
-}
+use support::*;
 
 fn fails(args: &[&str], code: i32, needle: &str) {
     let dir = tempfile::tempdir().unwrap();
