@@ -25,7 +25,7 @@ use glam::Vec3;
 #[serde(rename_all = "lowercase")]
 pub enum AoQuery {
     /// Any-hit queries (the first hit found ends the ray) over `[0, radius]`
-    /// from the hit point moved off the surface by [`offset_origin`]: the
+    /// from the hit point moved off the surface by `sampling::offset_origin`: the
     /// default render's form.
     #[default]
     Any,
