@@ -265,17 +265,10 @@ fn tiny_triangles_are_hit_with_finite_exact_values() {
         assert_eq!((hit.t, hit.prim), (0.5, 0));
         let bvh = Bvh::build(&tris, &BuildOptions::new(Builder::Sah));
         let rays = [ray];
-        for (s, t) in common::configurations() {
-            let (built, _) = Built::new(s, t, &bvh, tris.clone()).unwrap();
-            built
-                .with(common::Agrees {
-                    oracle: &oracle,
-                    rays: &rays,
-                })
-                .unwrap_or_else(|e| panic!("{leg:e} {}/{}: {e}", s.name(), t.name()));
-        }
+        common::every_configuration_agrees(&bvh, &tris, &oracle, &rays)
+            .unwrap_or_else(|e| panic!("{leg:e} {e}"));
     }
-    // The exact case: u = v = 1/3.
+    // The case: the ray crosses at (1/4, 1/4) of the legs.
     let tri = Triangle::new(
         Vec3::ZERO,
         Vec3::new(1e-20, 0.0, 0.0),
@@ -332,15 +325,7 @@ fn far_origins_make_no_false_hits() {
     assert!(crossing.len() > 150);
     rays.extend(crossing);
     let bvh = Bvh::build(&tris, &BuildOptions::new(Builder::Sah));
-    for (s, t) in common::configurations() {
-        let (built, _) = Built::new(s, t, &bvh, tris.clone()).unwrap();
-        built
-            .with(common::Agrees {
-                oracle: &oracle,
-                rays: &rays,
-            })
-            .unwrap_or_else(|e| panic!("{}/{}: {e}", s.name(), t.name()));
-    }
+    common::every_configuration_agrees(&bvh, &tris, &oracle, &rays).unwrap();
 }
 
 /// A closed mesh (an octahedron split into a fan per face, so that edges
@@ -408,22 +393,12 @@ fn every_structure_agrees_with_the_oracle_at_every_magnitude() {
         for builder in Builder::ALL {
             let bvh = Bvh::build(&tris, &BuildOptions::new(builder).with_max_leaf_size(4));
             assert!(bvh.validate(&tris).is_ok());
-            for (s, t) in common::configurations() {
-                let (built, _) = Built::new(s, t, &bvh, tris.clone()).unwrap();
-                built
-                    .with(common::Agrees {
-                        oracle: &oracle,
-                        rays: &rays,
-                    })
-                    .unwrap_or_else(|e| {
-                        panic!(
-                            "size {size:e} distance {distance:e} {}/{}/{}: {e}",
-                            s.name(),
-                            t.name(),
-                            builder.name()
-                        )
-                    });
-            }
+            common::every_configuration_agrees(&bvh, &tris, &oracle, &rays).unwrap_or_else(|e| {
+                panic!(
+                    "size {size:e} distance {distance:e} {}: {e}",
+                    builder.name()
+                )
+            });
         }
     }
 }

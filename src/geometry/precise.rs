@@ -53,6 +53,14 @@ fn two_prod(a: f64, b: f64) -> Dd {
 }
 
 impl Dd {
+    /// An f32, exactly.
+    fn exact(x: f32) -> Dd {
+        Dd {
+            hi: x as f64,
+            lo: 0.0,
+        }
+    }
+
     fn add(self, o: Dd) -> Dd {
         let s = two_sum(self.hi, o.hi);
         let t = two_sum(self.lo, o.lo);
@@ -88,10 +96,7 @@ fn dot(a: &[Dd; 3], b: &[Dd; 3]) -> Dd {
 
 /// `d × p` with `d` exact in f64.
 fn cross(d: Vec3, p: &[Dd; 3]) -> [Dd; 3] {
-    let d = [0, 1, 2].map(|i| Dd {
-        hi: d[i] as f64,
-        lo: 0.0,
-    });
+    let d = [0, 1, 2].map(|i| Dd::exact(d[i]));
     [
         d[1].mul(p[2]).add(d[2].mul(p[1]).neg()),
         d[2].mul(p[0]).add(d[0].mul(p[2]).neg()),
@@ -148,10 +153,7 @@ pub(super) fn intersect(
         abx * acy - aby * acx,
     ]
     .map(|x| Dd { hi: x, lo: 0.0 });
-    let dn = [0, 1, 2].map(|i| Dd {
-        hi: d[i] as f64,
-        lo: 0.0,
-    });
+    let dn = [0, 1, 2].map(|i| Dd::exact(d[i]));
     let den = dot(&n, &dn).value();
     if den == 0.0 || !den.is_finite() {
         return None;

@@ -132,34 +132,59 @@ impl Ray {
 
     /// Why a ray made of these parts is not valid, in a few words, or `None`.
     pub fn invalid_reason(origin: Vec3, direction: Vec3, tmin: f32, tmax: f32) -> Option<String> {
+        Fault::of(origin, direction, tmin, tmax).map(|f| f.to_string())
+    }
+
+    fn valid_parts(origin: Vec3, direction: Vec3, tmin: f32, tmax: f32) -> bool {
+        Fault::of(origin, direction, tmin, tmax).is_none()
+    }
+}
+
+/// Why a ray cannot be traced: the one check behind [`Ray::is_valid`] and
+/// [`Ray::invalid_reason`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Fault {
+    NonFinite,
+    OriginOutOfRange,
+    ZeroDirection,
+    DirectionOutOfRange(f32),
+    NanBound,
+}
+
+impl Fault {
+    fn of(origin: Vec3, direction: Vec3, tmin: f32, tmax: f32) -> Option<Fault> {
         let largest = direction.abs().max_element();
         if !origin.is_finite() || !direction.is_finite() {
-            Some("a NaN or infinite origin or direction".into())
+            Some(Fault::NonFinite)
         } else if origin.abs().max_element() > COORDINATE_LIMIT {
-            Some(format!(
-                "an origin coordinate beyond ±{COORDINATE_LIMIT:e} (2^126)"
-            ))
+            Some(Fault::OriginOutOfRange)
         } else if direction == Vec3::ZERO {
-            Some("a zero direction".into())
+            Some(Fault::ZeroDirection)
         } else if !(DIRECTION_MIN..=DIRECTION_MAX).contains(&largest) {
-            Some(format!(
-                "a direction whose largest component {largest:e} is outside [2^-100, 2^126]"
-            ))
+            Some(Fault::DirectionOutOfRange(largest))
         } else if tmin.is_nan() || tmax.is_nan() {
-            Some("a NaN tmin or tmax".into())
+            Some(Fault::NanBound)
         } else {
             None
         }
     }
+}
 
-    fn valid_parts(origin: Vec3, direction: Vec3, tmin: f32, tmax: f32) -> bool {
-        let largest = direction.abs().max_element();
-        origin.is_finite()
-            && direction.is_finite()
-            && origin.abs().max_element() <= COORDINATE_LIMIT
-            && (DIRECTION_MIN..=DIRECTION_MAX).contains(&largest)
-            && !tmin.is_nan()
-            && !tmax.is_nan()
+impl std::fmt::Display for Fault {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Fault::NonFinite => f.write_str("a NaN or infinite origin or direction"),
+            Fault::OriginOutOfRange => write!(
+                f,
+                "an origin coordinate beyond ±{COORDINATE_LIMIT:e} (2^126)"
+            ),
+            Fault::ZeroDirection => f.write_str("a zero direction"),
+            Fault::DirectionOutOfRange(largest) => write!(
+                f,
+                "a direction whose largest component {largest:e} is outside [2^-100, 2^126]"
+            ),
+            Fault::NanBound => f.write_str("a NaN tmin or tmax"),
+        }
     }
 }
 

@@ -83,8 +83,7 @@ impl Scene {
     /// A built-in scene name (`chess`, `hairball:300000`) or a path to an OBJ
     /// or PLY file.
     pub fn from_spec(spec: &str) -> Result<Scene> {
-        let base = spec.split(':').next().unwrap_or(spec);
-        if procedural::BUILTIN.iter().any(|b| b.name == base) {
+        if procedural::is_builtin(spec) {
             Scene::builtin(spec)
         } else if Path::new(spec).extension().is_some() || Path::new(spec).exists() {
             Scene::load(spec)

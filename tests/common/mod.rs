@@ -146,3 +146,21 @@ pub fn configurations() -> Vec<(StructureKind, TraversalKind)> {
     }
     v
 }
+
+/// Every structure and traversal built from `bvh` agrees with `oracle` on
+/// every ray; the error names the configuration.
+pub fn every_configuration_agrees(
+    bvh: &Bvh,
+    tris: &std::sync::Arc<[Triangle]>,
+    oracle: &BruteForce,
+    rays: &[Ray],
+) -> Result<(), String> {
+    for (s, t) in configurations() {
+        let (built, _) = raytree::accel::Built::new(s, t, bvh, tris.clone())
+            .map_err(|e| format!("{}/{}: {e}", s.name(), t.name()))?;
+        built
+            .with(Agrees { oracle, rays })
+            .map_err(|e| format!("{}/{}: {e}", s.name(), t.name()))?;
+    }
+    Ok(())
+}

@@ -231,9 +231,7 @@ fn run_in_pool(args: &RenderArgs) -> Result<()> {
             // A user's mesh (a file, not a built-in scene) gets the preview
             // settings unless --paper asks for the paper's: its silhouette
             // against a dark background and its shape by facing ratio.
-            let file = raytree::scene::procedural::BUILTIN
-                .iter()
-                .all(|b| scene.name.split(':').next() != Some(b.name));
+            let file = !raytree::scene::procedural::is_builtin(&scene.name);
             let mut s = AoSettings::paper(radius);
             if !args.paper {
                 if file {

@@ -56,6 +56,12 @@ pub const BUILTIN: &[Builtin] = &[
 /// Smallest and largest sizes accepted, in triangles.
 pub const SIZE_RANGE: (usize, usize) = (500, 200_000_000);
 
+/// Whether `spec` (`chess`, `hairball:300000`) names a built-in scene.
+pub fn is_builtin(spec: &str) -> bool {
+    let base = spec.split(':').next().unwrap_or(spec);
+    BUILTIN.iter().any(|b| b.name == base)
+}
+
 /// Builds `name` or `name:size`; size is an approximate triangle count and
 /// may end in `k` or `M` (`hairball:3M`).
 pub fn build(spec: &str) -> Result<Scene> {
