@@ -8,9 +8,9 @@
 //! prints each kernel's time and rays/s, so ratios are taken in one run).
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use raytree::accel::{Built, StructureKind, TraversalKind, WithAccel};
 use raytree::prelude::*;
 use raytree::render::rayset;
+use raytree::structures::{Built, StructureKind, TraversalKind, WithAccel};
 use std::hint::black_box;
 use std::time::Duration;
 

@@ -8,7 +8,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let scene = Scene::from_spec(args.first().map_or("chess", |s| s))?;
     let bvh = Bvh::build(&scene.triangles, &BuildOptions::sah());
     let structure = args.get(1).map_or("bvh", |s| s);
-    let tracer = raytree::accel::tracer(structure, &bvh, scene.triangles.clone())?;
+    let tracer = raytree::structures::tracer(structure, &bvh, scene.triangles.clone())?;
     let pixel = |i: usize| {
         scene
             .camera

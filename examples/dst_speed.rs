@@ -15,9 +15,9 @@
 //! `perf record`. Under callgrind, `--toggle-collect='*Time*run*'`
 //! counts the traced rays' instructions alone.
 
-use raytree::accel::{Built, StructureKind, TraversalKind, WithAccel};
 use raytree::prelude::*;
 use raytree::render::rayset;
+use raytree::structures::{Built, StructureKind, TraversalKind, WithAccel};
 use std::time::Instant;
 
 /// Seconds to trace the rays and how many hit.

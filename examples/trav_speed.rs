@@ -1,9 +1,9 @@
 //! Times every BVH traversal on fixed eye and AO ray sets of a built-in scene,
 //! one thread, no counting: `cargo run --release --example trav_speed -- chess [algorithm]`.
 
-use raytree::accel::{Built, SparseBvh, StructureKind, TraversalKind, WithAccel};
 use raytree::prelude::*;
 use raytree::render::rayset;
+use raytree::structures::{Built, SparseBvh, StructureKind, TraversalKind, WithAccel};
 use std::sync::Arc;
 use std::time::Instant;
 

@@ -3,13 +3,13 @@
 //! the ordinary test suite (`tests/fuzz_regressions.rs`). Each panics, and
 //! only panics, when raytree misbehaves on the input.
 
-use crate::accel::{dst::node::DstNode, htree::node::HNode, WithAccel};
-use crate::accel::{Accel, BruteForce, Built, StructureKind, TraversalKind};
 use crate::bvh::{BuildOptions, Builder, Bvh};
 use crate::geometry::Ray;
 use crate::rayfile;
 use crate::scene::{Camera, Mesh, Scene};
 use crate::stats::NoStats;
+use crate::structures::{dst::node::DstNode, htree::node::HNode, WithAccel};
+use crate::structures::{Accel, BruteForce, Built, StructureKind, TraversalKind};
 use std::path::Path;
 
 /// Meshes larger than this are only parsed, not traced: the fuzzer's time

@@ -3,7 +3,7 @@
 //!
 //! The data path: a [`scene::Scene`] (mesh + camera) gives triangles; a
 //! [`bvh::Bvh`] is built over them; layouts in [`accel`] are derived from the
-//! `Bvh`; every layout answers [`accel::Accel`] (closest hit, any hit, bytes),
+//! `Bvh`; every layout answers [`structures::Accel`] (closest hit, any hit, bytes),
 //! counting work through a [`stats::Stats`] sink that costs nothing when off.
 //!
 //! ```
@@ -17,13 +17,13 @@
 //! ```
 //!
 //! A structure chosen by name at run time traces batches in parallel
-//! through [`accel::Tracer`] (see also `examples/batch.rs`):
+//! through [`structures::Tracer`] (see also `examples/batch.rs`):
 //!
 //! ```
 //! use raytree::prelude::*;
 //! let scene = Scene::from_spec("chess:2000").unwrap();
 //! let bvh = Bvh::build(&scene.triangles, &BuildOptions::sah());
-//! let tracer = raytree::accel::tracer("bvh/laine-4", &bvh, scene.triangles.clone()).unwrap();
+//! let tracer = raytree::structures::tracer("bvh/laine-4", &bvh, scene.triangles.clone()).unwrap();
 //! let rays: Vec<Ray> = (0..1000).map(|i| scene.camera.ray(i as f32 / 1000.0, 0.6, 1.0)).collect();
 //! let (mut hits, mut occluded) = (vec![None; rays.len()], vec![false; rays.len()]);
 //! tracer.intersect(&rays, &mut hits, None).unwrap();
@@ -31,7 +31,6 @@
 //! assert!(hits.iter().zip(&occluded).all(|(h, &o)| h.is_some() == o));
 //! ```
 
-pub mod accel;
 pub mod bvh;
 pub mod error;
 pub mod fuzzing;
@@ -42,15 +41,15 @@ pub mod render;
 pub mod rng;
 pub mod scene;
 pub mod stats;
-pub mod traversal;
+pub mod structures;
 
 /// The names most programs need.
 pub mod prelude {
-    pub use crate::accel::{Accel, BinaryBvh, BruteForce};
     pub use crate::bvh::{BuildOptions, Builder, Bvh};
     pub use crate::error::Error;
     pub use crate::geometry::{Aabb, Hit, Ray, Triangle};
     pub use crate::scene::{Camera, Mesh, Scene};
     pub use crate::stats::{Counters, NoStats, Stats, VisitLog};
+    pub use crate::structures::{Accel, BinaryBvh, BruteForce};
     pub use glam::Vec3;
 }

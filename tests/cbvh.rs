@@ -4,9 +4,9 @@
 mod common;
 
 use rayon::prelude::*;
-use raytree::accel::cbvh::{INDEX_MASK, LAST, LEAF};
-use raytree::accel::CompactBvh;
 use raytree::prelude::*;
+use raytree::structures::leaf_triangles;
+use raytree::structures::CompactBvh;
 
 fn scenes() -> Vec<Scene> {
     let mut v = vec![
@@ -26,16 +26,8 @@ fn walk(c: &CompactBvh) -> Vec<(u32, Aabb, Vec<u32>)> {
     let mut todo = vec![(c.root(), c.root_bounds())];
     while let Some((r, b)) = todo.pop() {
         let mut prims = vec![];
-        if r & LEAF != 0 {
-            let mut i = (r & INDEX_MASK) as usize;
-            loop {
-                let e = c.index_list()[i];
-                prims.push(e & !LAST);
-                if e & LAST != 0 {
-                    break;
-                }
-                i += 1;
-            }
+        if let Some(first) = c.leaf_start(r) {
+            prims.extend(leaf_triangles(c.index_list(), first));
         } else {
             let n = &c.nodes()[r as usize];
             let kids = n.decode(&b);

@@ -2,13 +2,13 @@
 //! runs and thread counts, and equal to the BVH with STACK's: per-pixel
 //! random streams, and closest hits that do not depend on visiting order.
 
-use raytree::accel::{Built, StructureKind, TraversalKind, WithAccel};
 use raytree::prelude::*;
 use raytree::render::{
     render, render_uncounted, AoQuery, AoSettings, Image, Integrator, PathSettings, Rendered,
     Sampling,
 };
 use raytree::stats::Tally;
+use raytree::structures::{Built, StructureKind, TraversalKind, WithAccel};
 
 struct Render<'a> {
     scene: &'a Scene,

@@ -3,12 +3,12 @@
 
 mod common;
 
-use raytree::accel::dst::node::DstNode;
-use raytree::accel::dst::plan::Rules;
-use raytree::accel::dst::LAST;
-use raytree::accel::Bih;
-use raytree::accel::DualSplitTree;
 use raytree::prelude::*;
+use raytree::structures::dst::node::DstNode;
+use raytree::structures::dst::plan::Rules;
+use raytree::structures::Bih;
+use raytree::structures::DualSplitTree;
+use raytree::structures::LAST;
 use std::collections::HashMap;
 
 /// Walks the encoded tree from the scene box, narrowing each node's region
@@ -255,7 +255,7 @@ fn identical_trees_are_no_smaller_than_the_least_identical_storage() {
                     &scene.triangles,
                     &BuildOptions::new(builder).with_max_leaf_size(leaf),
                 );
-                let least = raytree::accel::dst::bound::least_identical_bytes(&bvh);
+                let least = raytree::structures::dst::bound::least_identical_bytes(&bvh);
                 let dst = DualSplitTree::from_bvh(&bvh, scene.triangles.clone(), false).unwrap();
                 let bih = Bih::from_bvh(&bvh, scene.triangles.clone()).unwrap();
                 let what = format!("{spec} {} leaf {leaf}", builder.name());

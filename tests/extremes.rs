@@ -8,9 +8,9 @@ mod common;
 use num_bigint::BigInt;
 use num_rational::BigRational;
 use num_traits::{Signed, ToPrimitive, Zero};
-use raytree::accel::Built;
 use raytree::prelude::*;
 use raytree::rng::Pcg32;
+use raytree::structures::Built;
 use std::sync::Arc;
 
 /// The exact value of an f32.
@@ -445,7 +445,7 @@ fn invalid_rays_are_misses_in_constant_time() {
 
 struct Probe(Ray);
 
-impl raytree::accel::WithAccel for Probe {
+impl raytree::structures::WithAccel for Probe {
     type Output = (Option<Hit>, Option<Hit>, u64);
     fn run<A: Accel>(self, a: &A) -> Self::Output {
         let mut c = Counters::default();

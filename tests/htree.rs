@@ -3,10 +3,10 @@
 
 mod common;
 
-use raytree::accel::htree::node::HNode;
-use raytree::accel::htree::LAST;
-use raytree::accel::HTree;
 use raytree::prelude::*;
+use raytree::structures::htree::node::HNode;
+use raytree::structures::HTree;
+use raytree::structures::LAST;
 use std::collections::{HashMap, HashSet};
 
 fn scenes() -> Vec<Scene> {

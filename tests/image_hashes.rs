@@ -7,9 +7,9 @@
 mod common;
 
 use common::configurations;
-use raytree::accel::{Accel, Built, WithAccel};
 use raytree::prelude::*;
 use raytree::render::{self, AoSettings, Integrator, PathSettings};
+use raytree::structures::{Accel, Built, WithAccel};
 use std::fmt::Write;
 
 /// FNV-1a, 64 bits.

@@ -3,8 +3,8 @@
 mod common;
 
 use rayon::prelude::*;
-use raytree::accel::{Built, StructureKind, TraversalKind, WithAccel};
 use raytree::prelude::*;
+use raytree::structures::{Built, StructureKind, TraversalKind, WithAccel};
 
 /// Closest hits must be identical (same t, triangle and barycentrics: the
 /// same triangle test and tie rule run in both); any-hit answers must agree

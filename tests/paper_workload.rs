@@ -5,12 +5,12 @@
 mod common;
 
 use rayon::prelude::*;
-use raytree::accel::{Built, WithAccel};
 use raytree::prelude::*;
 use raytree::render::{
     rayset, render, render_ao_phased, AoQuery, AoSettings, Image, Integrator, Sampling, PAPER_TMIN,
 };
 use raytree::scene::Fov;
+use raytree::structures::{Built, WithAccel};
 
 type D3 = [f64; 3];
 

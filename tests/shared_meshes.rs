@@ -7,8 +7,8 @@
 mod common;
 
 use rayon::prelude::*;
-use raytree::accel::{Built, StructureKind, TraversalKind, WithAccel};
 use raytree::prelude::*;
+use raytree::structures::{Built, StructureKind, TraversalKind, WithAccel};
 
 struct Answers<'a>(&'a [Ray]);
 

@@ -10,9 +10,9 @@
 mod common;
 
 use proptest::prelude::*;
-use raytree::accel::Built;
 use raytree::prelude::*;
 use raytree::rng::Pcg32;
+use raytree::structures::Built;
 use std::sync::Arc;
 
 #[derive(Clone, Copy, Debug)]

@@ -3,9 +3,9 @@
 mod common;
 
 use rayon::prelude::*;
-use raytree::accel::{Built, SparseBvh, StructureKind, TraversalKind, WithAccel};
 use raytree::prelude::*;
 use raytree::render::rayset;
+use raytree::structures::{Built, SparseBvh, StructureKind, TraversalKind, WithAccel};
 use std::sync::Arc;
 
 /// Per ray: the closest hit, its visit log, the any hit and its visit log.
@@ -307,7 +307,7 @@ fn too_deep_trees_are_clear_errors() {
     // A reservation limit is its own clear error.
     let scene = Scene::builtin("chess:3000").unwrap();
     let bvh = Bvh::build(&scene.triangles, &BuildOptions::hybrid());
-    let opts = raytree::accel::LayoutOptions {
+    let opts = raytree::structures::LayoutOptions {
         implicit_reservation_limit: 1 << 12,
     };
     let err = Built::with_options(
@@ -325,7 +325,7 @@ fn too_deep_trees_are_clear_errors() {
 
 #[test]
 fn state_sizes_follow_figure_5() {
-    use raytree::traversal::state_bytes;
+    use raytree::structures::state_bytes;
     assert_eq!(state_bytes(TraversalKind::ImplicitA, 20), 12);
     assert_eq!(state_bytes(TraversalKind::ImplicitB, 20), 8);
     assert_eq!(state_bytes(TraversalKind::Hapala, 20), 8);

@@ -15,9 +15,9 @@ use super::sampling::{
     cosine_hemisphere, cosine_hemisphere_paper, eye_ray_sampled, facing_normal, offset_origin,
 };
 use super::{Ctx, RaySink};
-use crate::accel::Accel;
 use crate::geometry::Ray;
 use crate::rng::Pcg32;
+use crate::structures::Accel;
 use glam::Vec3;
 
 /// How occlusion rays are traced.

@@ -9,9 +9,9 @@
 
 use super::ao::{ao_value, eye_sample, EyeSample};
 use super::{AoSettings, Ctx, Image, RaySink, RaysOnly};
-use crate::accel::Accel;
 use crate::scene::Scene;
 use crate::stats::Counters;
+use crate::structures::Accel;
 use rayon::prelude::*;
 use serde::Serialize;
 use std::time::Instant;
@@ -147,9 +147,9 @@ fn sum(it: impl Iterator<Item = Counters>) -> Counters {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::accel::BinaryBvh;
     use crate::bvh::{BuildOptions, Bvh};
     use crate::render::{render, Integrator};
+    use crate::structures::BinaryBvh;
 
     /// A small chess scene, its BVH and AO with `eye_rays` and `ao_rays`.
     fn chess(eye_rays: u32, ao_rays: u32) -> (Scene, BinaryBvh, AoSettings) {

@@ -17,9 +17,9 @@ pub use ao::{AoQuery, AoSettings, Sampling, PAPER_EYE_TMAX, PAPER_TMIN};
 pub use ao_phased::{render_ao_phased, render_ao_phased_uncounted, Phase, PhasedAo};
 pub use path::PathSettings;
 
-use crate::accel::Accel;
 use crate::scene::Scene;
 use crate::stats::{Counters, Stats, Tally};
+use crate::structures::Accel;
 use rayon::prelude::*;
 use std::time::Instant;
 

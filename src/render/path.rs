@@ -4,9 +4,9 @@
 
 use super::sampling::{cosine_hemisphere, eye_ray, facing_normal, offset_origin};
 use super::{Ctx, RaySink};
-use crate::accel::Accel;
 use crate::geometry::Ray;
 use crate::rng::Pcg32;
+use crate::structures::Accel;
 
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct PathSettings {

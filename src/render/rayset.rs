@@ -3,11 +3,11 @@
 //! generated with the same sampling.
 
 use super::sampling::{cosine_hemisphere, eye_ray, facing_normal, offset_origin};
-use crate::accel::Accel;
 use crate::geometry::Ray;
 use crate::rng::Pcg32;
 use crate::scene::Scene;
 use crate::stats::NoStats;
+use crate::structures::Accel;
 
 /// `spp` jittered eye rays per pixel of a `w`×`h` image (coherent rays).
 pub fn eye_rays(scene: &Scene, w: usize, h: usize, spp: u32) -> Vec<Ray> {

@@ -1,9 +1,9 @@
 //! Ray sets and helpers shared by the integration tests.
 #![allow(dead_code)]
 
-use raytree::accel::{StructureKind, TraversalKind, WithAccel};
 use raytree::prelude::*;
 use raytree::rng::Pcg32;
+use raytree::structures::{StructureKind, TraversalKind, WithAccel};
 
 /// A point of triangle `t` at barycentrics drawn from `rng`.
 pub fn point_on(t: &Triangle, rng: &mut Pcg32) -> Vec3 {
@@ -156,7 +156,7 @@ pub fn every_configuration_agrees(
     rays: &[Ray],
 ) -> Result<(), String> {
     for (s, t) in configurations() {
-        let (built, _) = raytree::accel::Built::new(s, t, bvh, tris.clone())
+        let (built, _) = raytree::structures::Built::new(s, t, bvh, tris.clone())
             .map_err(|e| format!("{}/{}: {e}", s.name(), t.name()))?;
         built
             .with(Agrees { oracle, rays })

@@ -14,15 +14,15 @@
 //! time is the mean over its frames. Ratios are to the uncompressed BVH in
 //! the same run.
 
-use raytree::accel::dst::DstStats;
-use raytree::accel::htree::HtreeStats;
-use raytree::accel::{Accel, Built, StructureKind, TraversalKind, WithAccel};
 use raytree::bvh::{BuildOptions, BuildStats, Bvh};
 use raytree::error::Result;
 use raytree::render::heatmap::Measure;
 use raytree::render::{render, render_uncounted, Image, Integrator, PathSettings, Rendered};
 use raytree::scene::Scene;
 use raytree::stats::{PerRay, MIB};
+use raytree::structures::dst::DstStats;
+use raytree::structures::htree::HtreeStats;
+use raytree::structures::{Accel, Built, StructureKind, TraversalKind, WithAccel};
 use serde::Serialize;
 
 /// The structures of Table 1, in the paper's order.

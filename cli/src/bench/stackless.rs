@@ -14,7 +14,6 @@
 //! which is the reference of the ratios: the paper gave every algorithm the
 //! same nodes.
 
-use raytree::accel::{Built, SparseBvh, StructureKind, TraversalKind, WithAccel};
 use raytree::bvh::{BuildOptions, BuildStats, Bvh};
 use raytree::error::Result;
 use raytree::render::{
@@ -22,7 +21,8 @@ use raytree::render::{
 };
 use raytree::scene::{Camera, Scene};
 use raytree::stats::PerRay;
-use raytree::traversal::state_bytes;
+use raytree::structures::state_bytes;
+use raytree::structures::{Built, SparseBvh, StructureKind, TraversalKind, WithAccel};
 use serde::Serialize;
 use std::sync::Arc;
 
@@ -174,7 +174,7 @@ impl<'a> Phased<'a> {
 
 impl WithAccel for Phased<'_> {
     type Output = PhasedAo;
-    fn run<A: raytree::accel::Accel>(self, a: &A) -> PhasedAo {
+    fn run<A: raytree::structures::Accel>(self, a: &A) -> PhasedAo {
         let (w, h) = self.size;
         if self.counted {
             render_ao_phased(a, self.scene, self.ao, w, h)

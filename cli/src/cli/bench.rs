@@ -7,11 +7,11 @@ use crate::bench::stackless::{self, Preset};
 use crate::bench::svg::{stacked_bars, Bar};
 use crate::bench::{dst, peers, report};
 use clap::{Args, Subcommand};
-use raytree::accel::StructureKind;
 use raytree::bvh::{BuildOptions, Builder};
 use raytree::error::Result;
 use raytree::render::{AoQuery, AoSettings, Sampling};
 use raytree::scene::Scene;
+use raytree::structures::StructureKind;
 use std::path::PathBuf;
 
 #[derive(Subcommand, Debug)]

@@ -3,12 +3,12 @@
 use crate::bench::machine::{Machine, Measured};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use raytree::accel::{Built, LayoutOptions, StructureInfo, StructureKind, TraversalKind};
 use raytree::bvh::{BuildOptions, BuildStats, Builder, Bvh};
 use raytree::error::Result;
 use raytree::names::Named;
 use raytree::prelude::Vec3;
 use raytree::scene::{Camera, Fov, Scene};
+use raytree::structures::{Built, LayoutOptions, StructureInfo, StructureKind, TraversalKind};
 use serde::Serialize;
 use std::path::Path;
 
@@ -196,7 +196,7 @@ pub fn build_bvh(scene: &Scene, args: &SceneArgs) -> (Bvh, BuildStats) {
 
 /// Checks the names before any work is done.
 pub fn check_structure(s: &StructureArgs) -> Result<()> {
-    raytree::accel::check(s.accel, s.traversal)
+    raytree::structures::check(s.accel, s.traversal)
 }
 
 pub fn build_structure(

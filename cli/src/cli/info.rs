@@ -3,9 +3,9 @@
 use super::common::{self, SceneArgs, SceneReport};
 use super::out::say;
 use clap::Args;
-use raytree::accel::{Built, StructureInfo, StructureKind, TraversalKind};
 use raytree::bvh::BuildStats;
 use raytree::error::Result;
+use raytree::structures::{Built, StructureInfo, StructureKind, TraversalKind};
 use serde::Serialize;
 use std::path::PathBuf;
 

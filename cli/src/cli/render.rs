@@ -4,13 +4,13 @@ use super::common::{self, CameraArgs, SceneArgs, SceneReport, StructureArgs};
 use super::out::say;
 use crate::bench::machine::Machine;
 use clap::{Args, ValueEnum};
-use raytree::accel::{Accel, StructureInfo, WithAccel};
 use raytree::bvh::BuildStats;
 use raytree::error::{Error, Result};
 use raytree::render::heatmap::{HeatmapInfo, Measure};
 use raytree::render::{self, AoQuery, AoSettings, Integrator, PathSettings, Rendered, Sampling};
 use raytree::scene::{Camera, Scene};
 use raytree::stats::{Counters, PerRay};
+use raytree::structures::{Accel, StructureInfo, WithAccel};
 use serde::Serialize;
 use std::path::PathBuf;
 

@@ -19,13 +19,13 @@ pub mod embree;
 pub mod obvhs;
 
 use rayon::prelude::*;
-use raytree::accel::{Accel, BinaryBvh};
 use raytree::bvh::{BuildOptions, Bvh};
 use raytree::error::Result;
 use raytree::geometry::Ray;
 use raytree::render::rayset;
 use raytree::scene::Scene;
 use raytree::stats::NoStats;
+use raytree::structures::{Accel, BinaryBvh};
 use serde::Serialize;
 use std::time::Instant;
 

@@ -5,22 +5,22 @@
 //! are culled against the closest hit. Because regions may overlap, the
 //! traversal runs until the stack is empty.
 //!
-//! Plane distances are widened by the ray's slack ([`super::interval::PlaneRay`]).
+//! Plane distances are widened by the ray's slack ([`crate::structures::shared::interval::PlaneRay`]).
 //! The loop decodes headers itself rather than through
-//! [`crate::accel::dst::node::DstNode`], so that only the node's kind
+//! [`super::node::DstNode`], so that only the node's kind
 //! (split, carve, plain leaf) and the ray's interval steer branches: the
 //! ray's signs and a carving node's axes and corner pick table entries.
 //! This halved the branch mispredictions per ray (callgrind's branch
 //! simulation on bunny.obj's path rays) and sped the traversal up by
 //! about 10%.
 
-use super::interval::{next_child, nonempty, pop_live, split_children};
-use super::leaf::{enter_interval, intersect_leaf};
-use super::with_stack;
-use crate::accel::dst::node::{is_split, CARVE_FACES, LEAF_HEADER, OFFSET_BITS, OFFSET_MASK};
-use crate::accel::dst::DualSplitTree;
+use super::node::{is_split, CARVE_FACES, LEAF_HEADER, OFFSET_BITS, OFFSET_MASK};
+use super::DualSplitTree;
 use crate::geometry::{Hit, Ray};
 use crate::stats::Stats;
+use crate::structures::shared::interval::{next_child, nonempty, pop_live, split_children};
+use crate::structures::shared::leaf::{enter_interval, intersect_leaf};
+use crate::structures::shared::with_stack;
 
 #[inline]
 pub fn trace<S: Stats, const ANY: bool>(

@@ -18,9 +18,9 @@
 //! change the partitioning; Lin et al. compare an identical H-tree, and so
 //! does raytree.
 
-use crate::accel::dst::convert::triangle_counts;
 use crate::bvh::{Bvh, NodeKind};
 use crate::geometry::Aabb;
+use crate::structures::dst::convert::triangle_counts;
 
 /// Cost of one face of a bounding node, relative to a triangle test.
 pub const FACE_COST: f32 = 0.15;

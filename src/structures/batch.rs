@@ -191,9 +191,9 @@ impl Built {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::accel::{StructureKind, TraversalKind};
     use crate::bvh::{BuildOptions, Builder, Bvh};
     use crate::scene::Scene;
+    use crate::structures::{StructureKind, TraversalKind};
     use glam::Vec3;
 
     fn rays(scene: &Scene, n: usize) -> Vec<Ray> {
@@ -267,7 +267,7 @@ mod tests {
 
     struct Single<'a>(&'a [Ray]);
 
-    impl crate::accel::WithAccel for Single<'_> {
+    impl crate::structures::WithAccel for Single<'_> {
         type Output = (Vec<Option<Hit>>, Vec<bool>, Counters);
         fn run<A: Accel>(self, a: &A) -> Self::Output {
             let mut c = Counters::default();

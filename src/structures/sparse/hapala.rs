@@ -4,10 +4,11 @@
 //! so that on the way back up the sibling to visit next is known without
 //! testing boxes again. Its visiting order differs from STACK's.
 
-use super::leaf::{enter, intersect_leaf, LAST};
-use crate::accel::sparse_bvh::{sibling, SparseBvh};
+use super::{sibling, SparseBvh};
 use crate::geometry::{Hit, Ray};
 use crate::stats::Stats;
+use crate::structures::shared::leaf::{enter, intersect_leaf};
+use crate::structures::shared::own_box::OwnBoxNode;
 
 #[derive(Clone, Copy, PartialEq, Eq)]
 enum From {
@@ -19,8 +20,9 @@ enum From {
     Child,
 }
 
+/// Closest hit (`ANY = false`) or any hit.
 #[inline]
-pub fn hapala<S: Stats, const ANY: bool>(sp: &SparseBvh, ray: &Ray, stats: &mut S) -> Option<Hit> {
+pub fn trace<S: Stats, const ANY: bool>(sp: &SparseBvh, ray: &Ray, stats: &mut S) -> Option<Hit> {
     if sp.is_empty() {
         return None;
     }
@@ -74,7 +76,7 @@ pub fn hapala<S: Stats, const ANY: bool>(sp: &SparseBvh, ray: &Ray, stats: &mut 
             // Arriving at an untested child: test its box now, with the
             // ray as short as it has become.
             let n = &nodes[cur as usize];
-            tally.planes += 6;
+            tally.planes += OwnBoxNode::PLANES;
             let hit = br.test(&n.bounds, tmin, tmax) != f32::INFINITY;
             if hit && !n.is_leaf() {
                 tally.nodes += 1;
@@ -93,7 +95,7 @@ pub fn hapala<S: Stats, const ANY: bool>(sp: &SparseBvh, ray: &Ray, stats: &mut 
                 if intersect_leaf::<ANY>(
                     &sp.index,
                     &sp.triangles,
-                    n.link & !LAST,
+                    n.target(),
                     ray,
                     &mut tmax,
                     &mut best,

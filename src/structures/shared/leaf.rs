@@ -1,13 +1,29 @@
-//! What every BVH traversal does at a leaf and at an inner node of
-//! own-box nodes.
+//! The sign-terminated leaf list every structure stores its leaves' triangles
+//! in, and what every traversal does at a leaf and at the root box.
 
 use super::interval::PlaneRay;
-use crate::accel::own_box_node::OwnBoxNode;
 use crate::geometry::{Aabb, BoxRay, Hit, Ray, Triangle};
 use crate::stats::{Stats, Tally};
 
-/// Index-list bit: the last triangle of a leaf (one list format for every layout).
-pub use crate::accel::binary_bvh::LAST;
+/// Index-list bit: the last triangle of a leaf. Every structure keeps its
+/// leaves' triangles in one list of mesh triangle indices, a leaf being a
+/// run whose last entry has this (sign) bit set, so leaves store no count.
+pub const LAST: u32 = 1 << 31;
+
+/// The mesh triangle indices of the leaf whose run starts at `first` in
+/// `index`, a sign-terminated list ([`LAST`]).
+///
+/// # Panics
+/// If the run is not terminated before the end of `index`.
+pub fn leaf_triangles(index: &[u32], first: u32) -> impl Iterator<Item = u32> + '_ {
+    let run = &index[first as usize..];
+    let len = run
+        .iter()
+        .position(|e| e & LAST != 0)
+        .expect("unterminated leaf run")
+        + 1;
+    run[..len].iter().map(|e| e & !LAST)
+}
 
 /// How far past the closest hit so far a traversal still looks, relative
 /// to its distance: boxes and regions are culled against
@@ -99,21 +115,4 @@ pub fn enter_interval<S: Stats>(
         return None;
     }
     Some((PlaneRay::new(&br, root), tally, tn, tf))
-}
-
-/// Entry distances (`+inf` on a miss) of the sibling pair whose left node is
-/// `nodes[left]`.
-#[inline(always)]
-pub fn test_children(
-    br: &BoxRay,
-    nodes: &[OwnBoxNode],
-    left: usize,
-    tmin: f32,
-    tmax: f32,
-) -> [f32; 2] {
-    let pair: &[OwnBoxNode; 2] = nodes[left..left + 2].try_into().unwrap();
-    [
-        br.test(&pair[0].bounds, tmin, tmax),
-        br.test(&pair[1].bounds, tmin, tmax),
-    ]
 }

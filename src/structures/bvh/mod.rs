@@ -18,25 +18,28 @@
 //! is kept beside the nodes and not counted in [`Accel::bytes`]: every
 //! structure has it.
 
+mod stack;
+
+use super::shared::leaf::LAST;
+use super::shared::MAX_STACK_DEPTH;
 use super::Accel;
 use crate::bvh::{Bvh, NodeKind, ROOT};
 use crate::error::{Error, Result};
 use crate::geometry::{Aabb, Hit, Ray, Triangle};
 use crate::stats::Stats;
-use crate::traversal::{stack, MAX_STACK_DEPTH};
 use std::sync::Arc;
 
 /// Words in an inner node.
-pub const INNER_WORDS: usize = 13;
+const INNER_WORDS: usize = 13;
+/// Ray-plane tests at an inner node: all its words but the link are the
+/// planes of its two children's boxes.
+const PAIR_PLANES: u32 = INNER_WORDS as u32 - 1;
 /// Link bit: the left child is a leaf.
-pub const LEFT_LEAF: u32 = 1 << 31;
+const LEFT_LEAF: u32 = 1 << 31;
 /// Link bit: the right child is a leaf.
-pub const RIGHT_LEAF: u32 = 1 << 30;
+const RIGHT_LEAF: u32 = 1 << 30;
 /// Link bits holding the left child's word offset.
-pub const OFFSET_MASK: u32 = (1 << 30) - 1;
-/// Index-list bit: the last triangle of a leaf. Also marks a leaf in a
-/// node reference (see [`NodeRef`]).
-pub const LAST: u32 = 1 << 31;
+const OFFSET_MASK: u32 = (1 << 30) - 1;
 
 /// A node reference as traversals hold it: the word offset, with bit 31 set
 /// for a leaf.

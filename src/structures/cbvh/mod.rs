@@ -28,24 +28,26 @@
 //! it computes only the six stored planes per node; the distances are the
 //! same expressions on the same floats as the uncompressed BVH's, so the
 //! traversal visits exactly the nodes STACK visits
-//! ([`crate::traversal::cbvh`]).
+//! (`traverse.rs`).
 
+mod traverse;
+
+use super::shared::MAX_STACK_DEPTH;
 use super::Accel;
 use crate::bvh::{Bvh, NodeKind, ROOT};
 use crate::error::{Error, Result};
 use crate::geometry::{Aabb, Hit, Ray, Triangle};
 use crate::stats::Stats;
-use crate::traversal::MAX_STACK_DEPTH;
 use std::sync::Arc;
 
-pub use super::binary_bvh::LAST;
+use super::shared::leaf::LAST;
 
 /// Reference bit: a leaf.
-pub const LEAF: u32 = 1 << 31;
+const LEAF: u32 = 1 << 31;
 /// Reference bits holding the index.
-pub const INDEX_MASK: u32 = (1 << 28) - 1;
+const INDEX_MASK: u32 = (1 << 28) - 1;
 /// Reference bits holding the three owner flags.
-pub const OWNER_SHIFT: u32 = 28;
+const OWNER_SHIFT: u32 = 28;
 
 /// One inner node: six planes and two child references (32 bytes).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -235,6 +237,13 @@ impl CompactBvh {
         self.leaf_ids.len()
     }
 
+    /// Where the leaf that reference `r` points to starts in
+    /// [`Self::index_list`], or `None` if `r` is an inner node (an index
+    /// into [`Self::nodes`]).
+    pub fn leaf_start(&self, r: u32) -> Option<u32> {
+        (r & LEAF != 0).then_some(r & INDEX_MASK)
+    }
+
     /// The canonical BVH id of reference `r` (for visit logs).
     pub fn canonical_id(&self, r: u32) -> u32 {
         if r & LEAF == 0 {
@@ -259,11 +268,11 @@ impl Accel for CompactBvh {
     }
 
     fn closest_hit<S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
-        crate::traversal::cbvh::trace::<S, false>(self, ray, stats)
+        traverse::trace::<S, false>(self, ray, stats)
     }
 
     fn any_hit<S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
-        crate::traversal::cbvh::trace::<S, true>(self, ray, stats)
+        traverse::trace::<S, true>(self, ray, stats)
     }
 }
 

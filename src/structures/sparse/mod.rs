@@ -6,16 +6,26 @@
 //! SPARSE, HAPALA, LAINE-k and (for fair timing ratios) STACK all run over
 //! this one layout: the paper gave every algorithm exactly the same BVH.
 
-use super::own_box_node::{OwnBoxNode, LEAF};
+mod hapala;
+mod laine;
+#[allow(clippy::module_inception)]
+mod sparse;
+mod stack;
+
+use super::shared::own_box::{OwnBoxNode, LEAF};
+use super::{Accel, TraversalKind};
 use crate::bvh::{Bvh, NodeKind, ROOT};
 use crate::error::{Error, Result};
 use crate::geometry::{Aabb, Triangle};
+use crate::geometry::{Hit, Ray};
+use crate::stats::Stats;
+use std::marker::PhantomData;
 use std::sync::Arc;
 
 /// `extra` bits 0–29: the parent's index.
-pub const PARENT_MASK: u32 = (1 << 30) - 1;
+const PARENT_MASK: u32 = (1 << 30) - 1;
 /// The root's parent field.
-pub const NO_PARENT: u32 = PARENT_MASK;
+const NO_PARENT: u32 = PARENT_MASK;
 
 #[derive(Clone, Debug)]
 pub struct SparseBvh {
@@ -133,6 +143,109 @@ pub fn sibling(n: u32) -> u32 {
         n + 1
     } else {
         n - 1
+    }
+}
+
+/// An algorithm over the sparse layout.
+pub trait SparseAlgorithm: Send + Sync + 'static {
+    const KIND: TraversalKind;
+    /// Deepest tree the algorithm's integers address.
+    const MAX_DEPTH: u32;
+    fn trace<S: Stats, const ANY: bool>(
+        layout: &SparseBvh,
+        ray: &Ray,
+        stats: &mut S,
+    ) -> Option<Hit>;
+}
+
+/// STACK over the sparse layout (for ratios on the same nodes).
+pub struct StackOnSparse;
+/// SPARSE (Algorithm 4).
+pub struct Sparse;
+/// HAPALA.
+pub struct Hapala;
+/// LAINE-k with a short stack of `K` (0, 1, 2, 4 or 8) entries.
+pub struct Laine<const K: usize>;
+
+impl SparseAlgorithm for StackOnSparse {
+    const KIND: TraversalKind = TraversalKind::Stack;
+    const MAX_DEPTH: u32 = crate::structures::shared::MAX_STACK_DEPTH as u32 - 1;
+    #[inline(always)]
+    fn trace<S: Stats, const ANY: bool>(l: &SparseBvh, r: &Ray, s: &mut S) -> Option<Hit> {
+        stack::trace::<S, ANY>(l, r, s)
+    }
+}
+
+impl SparseAlgorithm for Sparse {
+    const KIND: TraversalKind = TraversalKind::Sparse;
+    const MAX_DEPTH: u32 = 63;
+    #[inline(always)]
+    fn trace<S: Stats, const ANY: bool>(l: &SparseBvh, r: &Ray, s: &mut S) -> Option<Hit> {
+        sparse::trace::<S, ANY>(l, r, s)
+    }
+}
+
+impl SparseAlgorithm for Hapala {
+    const KIND: TraversalKind = TraversalKind::Hapala;
+    const MAX_DEPTH: u32 = u32::MAX;
+    #[inline(always)]
+    fn trace<S: Stats, const ANY: bool>(l: &SparseBvh, r: &Ray, s: &mut S) -> Option<Hit> {
+        hapala::trace::<S, ANY>(l, r, s)
+    }
+}
+
+impl<const K: usize> SparseAlgorithm for Laine<K> {
+    const KIND: TraversalKind = match K {
+        0 => TraversalKind::Laine0,
+        1 => TraversalKind::Laine1,
+        2 => TraversalKind::Laine2,
+        4 => TraversalKind::Laine4,
+        8 => TraversalKind::Laine8,
+        _ => panic!("LAINE-k exists for k = 0, 1, 2, 4, 8"),
+    };
+    const MAX_DEPTH: u32 = 63;
+    #[inline(always)]
+    fn trace<S: Stats, const ANY: bool>(l: &SparseBvh, r: &Ray, s: &mut S) -> Option<Hit> {
+        laine::trace::<S, ANY, K>(l, r, s)
+    }
+}
+
+/// A sparse-layout algorithm with its layout (shared between algorithms).
+pub struct OnSparse<A: SparseAlgorithm> {
+    pub layout: Arc<SparseBvh>,
+    _a: PhantomData<A>,
+}
+
+impl<A: SparseAlgorithm> OnSparse<A> {
+    /// Refuses a tree deeper than the algorithm addresses.
+    pub fn new(layout: Arc<SparseBvh>) -> crate::error::Result<Self> {
+        if layout.depth > A::MAX_DEPTH {
+            return Err(crate::error::Error::Limit(format!(
+                "BVH depth {} exceeds {}'s limit of {} levels; use the hybrid builder (--builder hybrid)",
+                layout.depth,
+                A::KIND.name(),
+                A::MAX_DEPTH
+            )));
+        }
+        Ok(OnSparse {
+            layout,
+            _a: PhantomData,
+        })
+    }
+}
+
+impl<A: SparseAlgorithm> Accel for OnSparse<A> {
+    fn name(&self) -> &'static str {
+        "bvh"
+    }
+    fn bytes(&self) -> usize {
+        self.layout.node_bytes() + self.layout.index_bytes()
+    }
+    fn closest_hit<S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
+        A::trace::<S, false>(&self.layout, ray, stats)
+    }
+    fn any_hit<S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
+        A::trace::<S, true>(&self.layout, ray, stats)
     }
 }
 

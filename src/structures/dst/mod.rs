@@ -5,27 +5,28 @@
 //! - [`node`]: the bit-exact encoding and its decoder;
 //! - [`plan`]: the SAH choice of carving nodes (equation 1);
 //! - [`convert`]: the identical and similar conversions;
-//! - traversal: [`crate::traversal::dst`].
+//! - traversal: `traverse.rs`.
 
 pub mod bound;
-pub mod convert;
+pub(crate) mod convert;
 pub mod node;
 pub mod plan;
+mod traverse;
 
 use self::convert::{convert, triangle_counts, Tree};
 use self::node::DstNode;
 use self::plan::{CarveOp, Rules};
+use super::shared::MAX_STACK_DEPTH;
 use super::Accel;
 use crate::bvh::{Bvh, ROOT};
 use crate::error::{Error, Result};
 use crate::geometry::{Aabb, Hit, Ray, Triangle};
 use crate::stats::Stats;
-use crate::traversal::MAX_STACK_DEPTH;
 use serde::Serialize;
 use std::sync::Arc;
 
 /// Index-list bit: the last triangle of a leaf.
-pub use super::binary_bvh::LAST;
+use super::shared::leaf::LAST;
 
 /// The paper's Tables 1–3 for one tree.
 #[derive(Clone, Debug, Default, Serialize, PartialEq)]
@@ -86,7 +87,7 @@ impl DualSplitTree {
     }
 
     /// Converts `bvh` under `rules` (also used for the BIH, which is a
-    /// dual-split tree without dual-axis nodes: [`crate::accel::Bih`]).
+    /// dual-split tree without dual-axis nodes: [`crate::structures::Bih`]).
     pub fn with_rules(bvh: &Bvh, triangles: Arc<[Triangle]>, rules: Rules) -> Result<Self> {
         let start = std::time::Instant::now();
         if bvh.stats.depth as usize >= MAX_STACK_DEPTH {
@@ -281,10 +282,10 @@ impl Accel for DualSplitTree {
     }
 
     fn closest_hit<S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
-        crate::traversal::dst::trace::<S, false>(self, ray, stats)
+        traverse::trace::<S, false>(self, ray, stats)
     }
 
     fn any_hit<S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
-        crate::traversal::dst::trace::<S, true>(self, ray, stats)
+        traverse::trace::<S, true>(self, ray, stats)
     }
 }

@@ -4,7 +4,9 @@
 
 use super::dst::DstStats;
 use super::htree::HtreeStats;
-use super::implicit_bvh::DEFAULT_RESERVATION_LIMIT;
+use super::implicit::{ImplicitA, ImplicitB, OnImplicit, DEFAULT_RESERVATION_LIMIT};
+use super::shared::stack_capacity;
+use super::sparse::{Hapala, Laine, OnSparse, Sparse, StackOnSparse};
 use super::{
     Accel, Bih, BinaryBvh, BruteForce, CompactBvh, DualSplitTree, HTree, ImplicitBvh, SparseBvh,
 };
@@ -12,9 +14,6 @@ use crate::bvh::Bvh;
 use crate::error::{Error, Result};
 use crate::geometry::Triangle;
 use crate::names::Named;
-use crate::traversal::{
-    state_bytes, Hapala, ImplicitA, ImplicitB, Laine, OnImplicit, OnSparse, Sparse, StackOnSparse,
-};
 use serde::Serialize;
 use std::sync::Arc;
 use std::time::Instant;
@@ -448,6 +447,33 @@ impl Built {
             Built::Cbvh(a) => w.run(a),
             Built::Brute(a) => w.run(a),
         }
+    }
+}
+
+/// Traversal state in bytes, counted as the stackless paper's Figure 5
+/// counts it: 4 bytes per 32-bit state variable (8 for the 64-bit ones
+/// here), and a stack adds its head and 4 bytes per entry (STACK's size
+/// follows the tree's depth, see [`stack_capacity`]).
+pub fn state_bytes(kind: TraversalKind, depth: u32) -> usize {
+    use TraversalKind::*;
+    let laine = |k: usize| 4 + 3 * 8 + if k > 0 { 4 + 4 * k } else { 0 };
+    match kind {
+        // node, stack head, entries
+        Stack => 4 + 4 + 4 * stack_capacity(depth),
+        // levelStart, levelIndex, swapMask
+        ImplicitA => 3 * 4,
+        // index, levelIndex
+        ImplicitB => 2 * 4,
+        // node, 64-bit levelIndex
+        Sparse => 4 + 8,
+        // cur, state
+        Hapala => 2 * 4,
+        // node, 64-bit trail, level and popLevel, short stack
+        Laine0 => laine(0),
+        Laine1 => laine(1),
+        Laine2 => laine(2),
+        Laine4 => laine(4),
+        Laine8 => laine(8),
     }
 }
 

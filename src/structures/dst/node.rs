@@ -20,11 +20,11 @@
 //! is the position of its first triangle in the index list.
 
 use crate::error::{Error, Result};
-use crate::traversal::interval::face_code;
+use crate::structures::shared::interval::face_code;
 
 /// Bits of the offset field.
-pub const OFFSET_BITS: u32 = 26;
-pub const OFFSET_MASK: u32 = (1 << OFFSET_BITS) - 1;
+pub(super) const OFFSET_BITS: u32 = 26;
+pub(super) const OFFSET_MASK: u32 = (1 << OFFSET_BITS) - 1;
 
 /// A decoded node.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -58,16 +58,16 @@ pub enum DstNode {
 }
 
 /// Header of a plain leaf.
-pub const LEAF_HEADER: u32 = 0b01_1100;
+pub(super) const LEAF_HEADER: u32 = 0b01_1100;
 
 /// Whether header `h` is a splitting node's.
 #[inline(always)]
-pub const fn is_split(h: u32) -> bool {
+pub(super) const fn is_split(h: u32) -> bool {
     h & 0b11_0000 == 0
 }
 
 /// A carving node's two planes as region faces (`2·axis + max_side`, see
-/// [`crate::traversal::interval::face_code`]) and its leaf bit: the
+/// [`crate::structures::shared::interval::face_code`]) and its leaf bit: the
 /// traversal decodes single- and dual-axis nodes alike by one table lookup
 /// of the header, [`CARVE_FACES`], instead of branching on their kind.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -77,7 +77,7 @@ pub struct CarveFaces {
 }
 
 /// [`CarveFaces`] by header; entries of other headers are unused.
-pub const CARVE_FACES: [CarveFaces; 64] = carve_faces();
+pub(super) const CARVE_FACES: [CarveFaces; 64] = carve_faces();
 
 const fn carve_faces() -> [CarveFaces; 64] {
     let mut table = [CarveFaces {
@@ -108,7 +108,7 @@ const fn carve_faces() -> [CarveFaces; 64] {
 }
 
 /// The paper's codes of the dual-axis pairs.
-pub const PAIRS: [([u8; 2], u32); 3] = [([0, 1], 0b00), ([0, 2], 0b01), ([1, 2], 0b11)];
+pub(super) const PAIRS: [([u8; 2], u32); 3] = [([0, 1], 0b00), ([0, 2], 0b01), ([1, 2], 0b11)];
 
 /// The axes of dual-axis pair `code`; the unused code 0b10 reads as yz.
 const fn pair_axes(code: u32) -> [u8; 2] {

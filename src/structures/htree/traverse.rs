@@ -7,13 +7,15 @@
 //! the interval is already clipped to. Popped entries are culled against
 //! the closest hit; the traversal runs until the stack is empty.
 
-use super::interval::{face_code, next_child, nonempty, pop_live, split_children};
-use super::leaf::{enter_interval, intersect_leaf};
-use super::with_stack;
-use crate::accel::htree::node::{LEAF_MASK, OFFSET_BITS, OFFSET_MASK};
-use crate::accel::htree::HTree;
+use super::node::{LEAF_MASK, OFFSET_BITS, OFFSET_MASK};
+use super::HTree;
 use crate::geometry::{Hit, Ray};
 use crate::stats::Stats;
+use crate::structures::shared::interval::{
+    face_code, next_child, nonempty, pop_live, split_children,
+};
+use crate::structures::shared::leaf::{enter_interval, intersect_leaf};
+use crate::structures::shared::with_stack;
 
 #[inline]
 pub fn trace<S: Stats, const ANY: bool>(h: &HTree, ray: &Ray, stats: &mut S) -> Option<Hit> {

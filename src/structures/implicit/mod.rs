@@ -8,11 +8,17 @@
 //! (`2i + 1`, `2i + 2`) starts on a 64-byte boundary: one cache line.
 //! Nodes are [`OwnBoxNode`]s whose `extra` word holds the canonical id.
 
-use super::own_box_node::{OwnBoxNode, LEAF};
+mod traverse;
+
+use super::shared::own_box::{OwnBoxNode, LEAF};
+use super::{Accel, TraversalKind};
 use crate::bvh::{Bvh, NodeKind, ROOT};
 use crate::error::{Error, Result};
 use crate::geometry::{Aabb, Triangle};
+use crate::geometry::{Hit, Ray};
+use crate::stats::Stats;
 use memmap2::{MmapMut, MmapOptions};
+use std::marker::PhantomData;
 use std::sync::Arc;
 
 /// The deepest tree the traversals' 32-bit indices address: a node at depth
@@ -151,6 +157,68 @@ impl ImplicitBvh {
 
     pub fn index_bytes(&self) -> usize {
         self.index.len() * 4
+    }
+}
+
+/// An algorithm over the implicit layout.
+pub trait ImplicitAlgorithm: Send + Sync + 'static {
+    const KIND: TraversalKind;
+    fn trace<S: Stats, const ANY: bool>(
+        layout: &ImplicitBvh,
+        ray: &Ray,
+        stats: &mut S,
+    ) -> Option<Hit>;
+}
+
+/// IMPLICIT-A (Algorithm 2).
+pub struct ImplicitA;
+/// IMPLICIT-B (Algorithm 3, combined index).
+pub struct ImplicitB;
+
+impl ImplicitAlgorithm for ImplicitA {
+    const KIND: TraversalKind = TraversalKind::ImplicitA;
+    #[inline(always)]
+    fn trace<S: Stats, const ANY: bool>(l: &ImplicitBvh, r: &Ray, s: &mut S) -> Option<Hit> {
+        traverse::implicit_a::<S, ANY>(l, r, s)
+    }
+}
+
+impl ImplicitAlgorithm for ImplicitB {
+    const KIND: TraversalKind = TraversalKind::ImplicitB;
+    #[inline(always)]
+    fn trace<S: Stats, const ANY: bool>(l: &ImplicitBvh, r: &Ray, s: &mut S) -> Option<Hit> {
+        traverse::implicit_b::<S, ANY>(l, r, s)
+    }
+}
+
+/// An implicit-layout algorithm with its layout.
+pub struct OnImplicit<A: ImplicitAlgorithm> {
+    pub layout: Arc<ImplicitBvh>,
+    _a: PhantomData<A>,
+}
+
+impl<A: ImplicitAlgorithm> OnImplicit<A> {
+    pub fn new(layout: Arc<ImplicitBvh>) -> Self {
+        OnImplicit {
+            layout,
+            _a: PhantomData,
+        }
+    }
+}
+
+impl<A: ImplicitAlgorithm> Accel for OnImplicit<A> {
+    fn name(&self) -> &'static str {
+        "bvh"
+    }
+    /// The resident bytes: the pages that hold nodes, and the index list.
+    fn bytes(&self) -> usize {
+        self.layout.resident_bytes() + self.layout.index_bytes()
+    }
+    fn closest_hit<S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
+        A::trace::<S, false>(&self.layout, ray, stats)
+    }
+    fn any_hit<S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
+        A::trace::<S, true>(&self.layout, ray, stats)
     }
 }
 

@@ -10,11 +10,11 @@
 //! STACK's over the uncompressed BVH bit for bit. A stack entry is a child
 //! reference and its plane distances.
 
-use super::leaf::{enter, intersect_leaf};
-use super::with_stack;
-use crate::accel::cbvh::{CompactBvh, INDEX_MASK, LEAF, OWNER_SHIFT};
+use super::{CompactBvh, INDEX_MASK, LEAF, OWNER_SHIFT};
 use crate::geometry::{Hit, Ray};
 use crate::stats::Stats;
+use crate::structures::shared::leaf::{enter, intersect_leaf};
+use crate::structures::shared::with_stack;
 use glam::{BVec4A, Vec4, Vec4Swizzles};
 
 /// The current node's plane distances per axis, `[lo, lo, hi, hi]`: the

@@ -19,7 +19,7 @@
 //!   Lin et al. used "an optimized node representation comparable to"
 //!   theirs; as in the dual-split tree, the last clip node above a BVH leaf
 //!   carries the leaf itself (a clip leaf), so such leaves cost no word;
-//! - traversal is the dual-split traversal ([`crate::traversal::dst`]),
+//! - traversal is the dual-split traversal (the dual-split tree's),
 //!   which for these two node kinds is the BIH's: near child by the sign of
 //!   the direction, the far one pushed with its interval, pop culling
 //!   against the closest hit.

@@ -18,10 +18,10 @@
 use crate::error::{Error, Result};
 
 /// Header bits holding a split node's second-child offset.
-pub const OFFSET_BITS: u32 = 28;
-pub const OFFSET_MASK: u32 = (1 << OFFSET_BITS) - 1;
+pub(super) const OFFSET_BITS: u32 = 28;
+pub(super) const OFFSET_MASK: u32 = (1 << OFFSET_BITS) - 1;
 /// Header bits holding a leaf's index-list position.
-pub const LEAF_MASK: u32 = (1 << 30) - 1;
+pub(super) const LEAF_MASK: u32 = (1 << 30) - 1;
 
 const KIND_SPLIT: u32 = 0;
 const KIND_BOUND: u32 = 1;

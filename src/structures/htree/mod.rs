@@ -7,28 +7,29 @@
 //! - [`node`]: the encoding (12-byte split nodes, bounding nodes of 4 bytes
 //!   plus 4 per stored face, 4-byte leaves);
 //! - [`convert`]: the SAH conversion;
-//! - traversal: [`crate::traversal::htree`].
+//! - traversal: `traverse.rs`.
 //!
 //! Choices where the papers are open (baselines.md §5, §8): a bounding node
 //! stores any subset of the six faces (63 types), exactly those by which the
 //! child's cell exceeds its BVH box, so every cell equals its BVH node's box
 //! bit for bit; the face cost is `0.15·C_I` per face.
 
-pub mod convert;
+mod convert;
 pub mod node;
+mod traverse;
 
 use self::convert::{convert_bvh, Tree};
 use self::node::HNode;
+use super::shared::MAX_STACK_DEPTH;
 use super::Accel;
 use crate::bvh::Bvh;
 use crate::error::{Error, Result};
 use crate::geometry::{Aabb, Hit, Ray, Triangle};
 use crate::stats::Stats;
-use crate::traversal::MAX_STACK_DEPTH;
 use serde::Serialize;
 use std::sync::Arc;
 
-pub use super::binary_bvh::LAST;
+use super::shared::leaf::LAST;
 
 /// Node counts and storage of an H-tree.
 #[derive(Clone, Debug, Default, Serialize, PartialEq)]
@@ -172,10 +173,10 @@ impl Accel for HTree {
     }
 
     fn closest_hit<S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
-        crate::traversal::htree::trace::<S, false>(self, ray, stats)
+        traverse::trace::<S, false>(self, ray, stats)
     }
 
     fn any_hit<S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
-        crate::traversal::htree::trace::<S, true>(self, ray, stats)
+        traverse::trace::<S, true>(self, ray, stats)
     }
 }

@@ -1,0 +1,66 @@
+//! Acceleration structures, one folder each: its node layout and encoding,
+//! its conversion from the canonical [`crate::bvh::Bvh`] and its traversal
+//! kernels. Every one answers [`Accel`]; [`registry`] names them all;
+//! [`Tracer`] traces batches through one chosen by name at run time.
+//! What several share sits one level below them, in [`shared`].
+//!
+//! | folder | structure | traversals | paper |
+//! |---|---|---|---|
+//! | `bvh/` | uncompressed binary BVH, 52-byte inner nodes | STACK | Lin et al. 2019, §5 |
+//! | `sparse/` | own-box nodes with parent links | SPARSE, HAPALA, LAINE-k, STACK | Barringer and Akenine-Möller 2013, §3, Alg. 4 |
+//! | `implicit/` | own-box nodes at heap positions | IMPLICIT-A, IMPLICIT-B | Barringer and Akenine-Möller 2013, §2, Alg. 2, 3 |
+//! | `dst/` | dual-split tree, 4/12-byte nodes | interval traversal | Lin et al. 2019 |
+//! | `bih/` | bounding interval hierarchy (dual-split encoding) | interval traversal | Wächter and Keller 2006 |
+//! | `htree/` | H-tree | interval traversal | Havran et al. 2006 (Lin et al.'s baseline) |
+//! | `cbvh/` | Compact BVH, shared planes, 32-byte nodes | stack | Fabianowski and Dingliana 2009 (Lin et al.'s baseline) |
+//! | `brute/` | every triangle: the oracle | — | — |
+
+mod batch;
+pub mod bih;
+pub mod brute;
+pub mod bvh;
+pub mod cbvh;
+pub mod dst;
+pub mod htree;
+pub mod implicit;
+pub mod registry;
+pub mod shared;
+pub mod sparse;
+
+pub use batch::{tracer, Tracer};
+pub use bih::Bih;
+pub use brute::BruteForce;
+pub use bvh::BinaryBvh;
+pub use cbvh::CompactBvh;
+pub use dst::DualSplitTree;
+pub use htree::HTree;
+pub use implicit::ImplicitBvh;
+pub use registry::{
+    check, state_bytes, Built, LayoutOptions, StructureInfo, StructureKind, TraversalKind,
+    WithAccel,
+};
+pub use shared::leaf::{leaf_triangles, LAST};
+pub use shared::{stack_capacity, MAX_STACK_DEPTH};
+pub use sparse::SparseBvh;
+
+use crate::geometry::{Hit, Ray};
+use crate::stats::Stats;
+
+/// What every structure answers. The statistics sink is a generic parameter,
+/// so that tracing with [`crate::stats::NoStats`] compiles the counting away.
+pub trait Accel: Send + Sync {
+    /// The structure's name as the command line spells it (`bvh`, `brute`).
+    fn name(&self) -> &'static str;
+
+    /// Bytes of the structure itself: nodes and triangle index lists, not the
+    /// triangles, which every structure shares.
+    fn bytes(&self) -> usize;
+
+    /// The nearest hit within `[ray.tmin, ray.tmax]`; on equal distances, the
+    /// smaller triangle index (see [`Hit::beats`]).
+    fn closest_hit<S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit>;
+
+    /// Some hit within `[ray.tmin, ray.tmax]`; the first one found ends the
+    /// search.
+    fn any_hit<S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit>;
+}

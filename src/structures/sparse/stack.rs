@@ -1,0 +1,65 @@
+//! STACK over the sparse layout's own-box nodes (the algorithm of the
+//! uncompressed BVH's STACK): the same algorithm on the nodes the stackless
+//! traversals use, so that timing ratios compare algorithms, not layouts.
+
+use super::SparseBvh;
+use crate::geometry::{Hit, Ray};
+use crate::stats::Stats;
+use crate::structures::shared::own_box::{Children, Step, Walk};
+use crate::structures::shared::with_stack;
+
+/// Closest hit (`ANY = false`) or any hit (`ANY = true`).
+#[inline]
+pub fn trace<S: Stats, const ANY: bool>(sp: &SparseBvh, ray: &Ray, stats: &mut S) -> Option<Hit> {
+    with_stack!(sp.depth, trace_n::<S; ANY>(sp, ray, stats))
+}
+
+#[inline]
+fn trace_n<S: Stats, const ANY: bool, const N: usize>(
+    sp: &SparseBvh,
+    ray: &Ray,
+    stats: &mut S,
+) -> Option<Hit> {
+    if sp.is_empty() {
+        return None;
+    }
+    let mut w = Walk::<ANY>::enter(ray, &sp.nodes, 0, &sp.index, &sp.triangles, stats)?;
+    let mut stack = [0u32; N];
+    let mut top = 0;
+    let mut node = 0u32;
+    loop {
+        match w.step(
+            node as usize,
+            |n| n.target(),
+            || sp.ids[node as usize],
+            stats,
+        ) {
+            Step::Inner { left, children } => match children {
+                Children::Both { right_first } => {
+                    let (near, far) = if right_first {
+                        (left + 1, left)
+                    } else {
+                        (left, left + 1)
+                    };
+                    node = near;
+                    stack[top] = far;
+                    top += 1;
+                    continue;
+                }
+                Children::One { right } => {
+                    node = left + right as u32;
+                    continue;
+                }
+                Children::None => {}
+            },
+            Step::Leaf => {}
+            Step::Done => break,
+        }
+        if top == 0 {
+            break;
+        }
+        top -= 1;
+        node = stack[top];
+    }
+    w.finish(stats)
+}
