@@ -48,7 +48,10 @@ fn main() {
         ("stack", TraversalKind::Stack, false),
         ("stack-sparse", TraversalKind::Stack, true),
         ("sparse", TraversalKind::Sparse, true),
+        ("implicit-a", TraversalKind::ImplicitA, false),
         ("implicit-b", TraversalKind::ImplicitB, false),
+        ("laine-0", TraversalKind::Laine0, true),
+        ("laine-2", TraversalKind::Laine2, true),
         ("laine-8", TraversalKind::Laine8, true),
         ("hapala", TraversalKind::Hapala, true),
     ] {

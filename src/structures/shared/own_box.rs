@@ -108,6 +108,7 @@ pub enum Step {
 pub struct Walk<'a, const ANY: bool> {
     br: BoxRay,
     ray: &'a Ray,
+    tmin: f32,
     tmax: f32,
     best: Option<Hit>,
     tally: Tally,
@@ -133,6 +134,7 @@ impl<'a, const ANY: bool> Walk<'a, ANY> {
         Some(Walk {
             br,
             ray,
+            tmin: ray.tmin,
             tmax: ray.tmax,
             best: None,
             tally,
