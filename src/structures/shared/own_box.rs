@@ -181,7 +181,7 @@ impl<'a, const ANY: bool> Walk<'a, ANY> {
             &self.br,
             self.nodes,
             left as usize,
-            self.ray.tmin,
+            self.tmin,
             self.tmax,
         );
         Step::Inner {

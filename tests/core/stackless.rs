@@ -1,6 +1,6 @@
 //! The stackless traversals against STACK and the oracle.
 
-mod common;
+use crate::common;
 
 use rayon::prelude::*;
 use raytree::prelude::*;

@@ -1,7 +1,7 @@
 //! Rays that cross a closed surface through a shared edge or vertex never
 //! slip through.
 
-mod common;
+use crate::common;
 
 use raytree::prelude::*;
 use raytree::rng::Pcg32;

@@ -2,7 +2,7 @@
 //! camera, its stratified eye jitter, its closest-hit AO rays; and every
 //! traversal still rendering the same image in that form.
 
-mod common;
+use crate::common;
 
 use rayon::prelude::*;
 use raytree::prelude::*;

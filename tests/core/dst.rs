@@ -1,7 +1,7 @@
 //! Dual-split trees: the encoding, the partitioning against the BVH's, and
 //! the traversal against the oracle.
 
-mod common;
+use crate::common;
 
 use raytree::prelude::*;
 use raytree::structures::dst::node::DstNode;

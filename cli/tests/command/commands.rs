@@ -1,9 +1,9 @@
 //! Tests that run the `raytree` binary.
 
-#[path = "../../tests/common/mod.rs"]
+#[path = "../../../tests/core/common.rs"]
 mod common;
 
-mod support;
+use crate::support;
 use raytree::prelude::*;
 use raytree::rayfile;
 use std::path::Path;

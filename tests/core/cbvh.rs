@@ -1,7 +1,7 @@
 //! The Compact BVH: its boxes are the BVH's bit for bit, its storage is
 //! exact, and its traversal visits exactly STACK's nodes.
 
-mod common;
+use crate::common;
 
 use rayon::prelude::*;
 use raytree::prelude::*;

@@ -2,7 +2,7 @@
 //! stackless paper's view and AO form under --paper, the form named in every
 //! report, and clear errors for angles that are not angles.
 
-mod support;
+use crate::support;
 use std::path::Path;
 use support::*;
 

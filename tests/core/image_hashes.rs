@@ -4,7 +4,7 @@
 //! only for an intended change: `RAYTREE_RECORD_HASHES=1 cargo test --test
 //! image_hashes` rewrites `tests/data/image_hashes.txt`.
 
-mod common;
+use crate::common;
 
 use common::configurations;
 use raytree::prelude::*;

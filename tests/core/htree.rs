@@ -1,7 +1,7 @@
 //! The H-tree: its cells are the BVH's boxes bit for bit, its nodes decode
 //! to what was encoded and its storage adds up.
 
-mod common;
+use crate::common;
 
 use raytree::prelude::*;
 use raytree::structures::htree::node::HNode;

@@ -1,6 +1,6 @@
 //! Every structure agrees with the brute-force oracle on mixed ray sets.
 
-mod common;
+use crate::common;
 
 use rayon::prelude::*;
 use raytree::prelude::*;

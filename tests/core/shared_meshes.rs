@@ -4,7 +4,7 @@
 //! 871k-triangle dragon would take hours; STACK is held to the oracle on
 //! 100k rays of the smaller meshes in `oracle.rs`).
 
-mod common;
+use crate::common;
 
 use rayon::prelude::*;
 use raytree::prelude::*;

@@ -3,7 +3,7 @@
 //! oracle is checked against exact rational arithmetic, and every structure
 //! and traversal against the oracle.
 
-mod common;
+use crate::common;
 
 use num_bigint::BigInt;
 use num_rational::BigRational;

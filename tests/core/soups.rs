@@ -7,7 +7,7 @@
 //! at points on triangles, exactly at vertices, along the axes, and at
 //! random.
 
-mod common;
+use crate::common;
 
 use proptest::prelude::*;
 use raytree::prelude::*;

@@ -2,7 +2,7 @@
 //! along its up axis, the default render of a user's mesh, progress for
 //! every long step.
 
-mod support;
+use crate::support;
 use std::path::Path;
 use std::process::Command;
 use support::*;

@@ -1,0 +1,12 @@
+//! The `raytree` command's tests, in one test binary: commands, outputs and
+//! errors (`commands`), bad and extreme input (`field`), the stackless
+//! paper's workload (`paper`) and the HTML report in headless Chromium
+//! (`report_browser`). The peers' tests (`tests/peers.rs`) stay apart, so
+//! that CI can build them with Embree alone.
+
+mod support;
+
+mod field;
+mod commands;
+mod paper;
+mod report_browser;

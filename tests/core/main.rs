@@ -1,0 +1,21 @@
+//! The core library's integration tests, in one test binary (one compile
+//! and link of every kernel instead of one per file): agreement with the
+//! brute-force oracle, the papers' properties, bad input, determinism and
+//! the recorded image hashes.
+
+mod common;
+
+mod bad_input;
+mod cbvh;
+mod determinism;
+mod dst;
+mod extremes;
+mod fuzz_regressions;
+mod htree;
+mod image_hashes;
+mod oracle;
+mod paper_workload;
+mod shared_meshes;
+mod soups;
+mod stackless;
+mod watertight;
