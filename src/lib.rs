@@ -2,7 +2,7 @@
 //! traversed by several algorithms and checked against one brute-force oracle.
 //!
 //! The data path: a [`scene::Scene`] (mesh + camera) gives triangles; a
-//! [`bvh::Bvh`] is built over them; layouts in [`accel`] are derived from the
+//! [`bvh::Bvh`] is built over them; layouts in [`structures`] are derived from the
 //! `Bvh`; every layout answers [`structures::Accel`] (closest hit, any hit, bytes),
 //! counting work through a [`stats::Stats`] sink that costs nothing when off.
 //!
@@ -30,6 +30,8 @@
 //! tracer.occluded(&rays, &mut occluded, None).unwrap();
 //! assert!(hits.iter().zip(&occluded).all(|(h, &o)| h.is_some() == o));
 //! ```
+
+#![deny(missing_docs)]
 
 pub mod bvh;
 pub mod error;

@@ -13,7 +13,9 @@ use glam::Vec3;
 use std::io::Write;
 use std::path::Path;
 
+/// Bytes per ray in a ray file: eight little-endian f32.
 pub const RAY_BYTES: usize = 32;
+/// Bytes per hit in a hit file: `t`, triangle index, `u`, `v`.
 pub const HIT_BYTES: usize = 16;
 /// The triangle index written for a miss.
 pub const MISS: u32 = u32::MAX;

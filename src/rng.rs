@@ -24,6 +24,7 @@ impl Pcg32 {
         r
     }
 
+    /// The next output, uniform over all of `u32`.
     pub fn next_u32(&mut self) -> u32 {
         let old = self.state;
         self.state = old.wrapping_mul(Self::MUL).wrapping_add(self.inc);

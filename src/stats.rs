@@ -44,9 +44,13 @@ impl Stats for NoStats {
 /// by the caller) so that per-ray averages can be reported.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
 pub struct Counters {
+    /// Rays traced; not counted by [`Stats::add`], the caller sets it.
     pub rays: u64,
+    /// Sum of [`Tally::nodes`].
     pub nodes: u64,
+    /// Sum of [`Tally::planes`].
     pub planes: u64,
+    /// Sum of [`Tally::triangles`].
     pub triangles: u64,
 }
 
@@ -75,12 +79,16 @@ pub const MIB: f64 = (1u64 << 20) as f64;
 /// Per-ray averages.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
 pub struct PerRay {
+    /// Nodes visited per ray.
     pub nodes: f64,
+    /// Ray-plane tests per ray (a box test counts 6).
     pub planes: f64,
+    /// Ray-triangle tests per ray.
     pub triangles: f64,
 }
 
 impl Counters {
+    /// Each total divided by [`Self::rays`] (by 1 when no rays were counted).
     pub fn per_ray(&self) -> PerRay {
         let r = self.rays.max(1) as f64;
         PerRay {
@@ -95,7 +103,10 @@ impl Counters {
 /// that compare traversal orders.
 #[derive(Clone, Debug, Default)]
 pub struct VisitLog {
+    /// The work, as [`Counters`] would count it.
     pub counters: Counters,
+    /// Canonical [`crate::bvh::Bvh`] node ids in visiting order, over every
+    /// ray traced into this log.
     pub visits: Vec<u32>,
 }
 

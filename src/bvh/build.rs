@@ -20,8 +20,10 @@ pub enum Builder {
 }
 
 impl Builder {
+    /// Both builders.
     pub const ALL: [Builder; 2] = [Builder::Sah, Builder::Hybrid];
 
+    /// `"sah"` or `"hybrid"`, as serialized and reported in [`super::BuildStats`].
     pub fn name(self) -> &'static str {
         match self {
             Builder::Sah => "sah",
@@ -30,12 +32,14 @@ impl Builder {
     }
 }
 
+/// How to build a [`super::Bvh`]; [`BuildOptions::new`] gives the defaults.
 #[derive(Clone, Debug)]
 pub struct BuildOptions {
+    /// The split rule.
     pub builder: Builder,
     /// Leaves hold at most this many triangles (1..=255).
     pub max_leaf_size: usize,
-    /// Levels split by SAH in the hybrid builder.
+    /// Levels split by SAH in the hybrid builder (the stackless paper's 8).
     pub sah_levels: u32,
     /// SAH bins per axis.
     pub bins: usize,
@@ -49,6 +53,8 @@ const SAH_MAX_DEPTH: u32 = 64;
 const PARALLEL_SUBTREE: usize = 4096;
 
 impl BuildOptions {
+    /// `builder` with leaves of at most 8 triangles, 8 SAH levels (hybrid)
+    /// and 32 bins per axis.
     pub fn new(builder: Builder) -> Self {
         BuildOptions {
             builder,
@@ -58,14 +64,18 @@ impl BuildOptions {
         }
     }
 
+    /// [`Self::new`] with [`Builder::Sah`].
     pub fn sah() -> Self {
         Self::new(Builder::Sah)
     }
 
+    /// [`Self::new`] with [`Builder::Hybrid`]: the stackless paper's tree (§4).
     pub fn hybrid() -> Self {
         Self::new(Builder::Hybrid)
     }
 
+    /// The same options with leaves of at most `n` triangles;
+    /// [`super::Bvh::build`] panics unless `n` is in `1..=255`.
     pub fn with_max_leaf_size(mut self, n: usize) -> Self {
         self.max_leaf_size = n;
         self

@@ -18,11 +18,17 @@ use serde::Serialize;
 /// What a build reports.
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct BuildStats {
+    /// [`Builder::name`] of the builder used: `"sah"` or `"hybrid"`.
     pub builder: String,
+    /// [`BuildOptions::max_leaf_size`] of the build.
     pub max_leaf_size: usize,
+    /// Wall-clock time of the build, in seconds.
     pub build_seconds: f64,
+    /// Nodes in total: `inner_nodes + leaves`, which is `2 · leaves - 1`.
     pub nodes: usize,
+    /// Nodes with two children.
     pub inner_nodes: usize,
+    /// Leaf nodes.
     pub leaves: usize,
     /// Depth of the deepest node; the root has depth 0.
     pub depth: u32,
@@ -35,9 +41,11 @@ pub struct BuildStats {
 /// A binary BVH over triangle references.
 #[derive(Clone, Debug)]
 pub struct Bvh {
+    /// Every node in depth-first preorder; the root is [`ROOT`].
     pub nodes: Vec<Node>,
     /// Mesh triangle indices; leaves refer to ranges of it.
     pub prims: Vec<u32>,
+    /// What the build reported.
     pub stats: BuildStats,
 }
 
@@ -48,14 +56,21 @@ pub const NO_PARENT: u32 = u32::MAX;
 
 impl Bvh {
     /// Builds a BVH over `triangles` (mesh order) with `options`.
+    ///
+    /// # Panics
+    ///
+    /// If `options.max_leaf_size` is not in `1..=255`.
     pub fn build(triangles: &[crate::geometry::Triangle], options: &BuildOptions) -> Bvh {
         build::build(triangles, options)
     }
 
+    /// Node [`ROOT`].
     pub fn root(&self) -> &Node {
         &self.nodes[ROOT as usize]
     }
 
+    /// The root's box: the scene box of every non-degenerate triangle
+    /// ([`Aabb::EMPTY`] for none).
     pub fn bounds(&self) -> Aabb {
         self.root().bounds
     }

@@ -5,7 +5,9 @@ use glam::{Vec3, Vec4, Vec4Swizzles};
 /// growing it by anything gives that thing.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Aabb {
+    /// The lower corner, in scene units.
     pub min: Vec3,
+    /// The upper corner, in scene units.
     pub max: Vec3,
 }
 
@@ -16,11 +18,13 @@ impl Default for Aabb {
 }
 
 impl Aabb {
+    /// The empty box: `min = +inf`, `max = -inf`.
     pub const EMPTY: Aabb = Aabb {
         min: Vec3::INFINITY,
         max: Vec3::NEG_INFINITY,
     };
 
+    /// The box from `min` to `max` (not checked: `min > max` on an axis is empty).
     pub fn new(min: Vec3, max: Vec3) -> Self {
         Aabb { min, max }
     }
@@ -30,6 +34,7 @@ impl Aabb {
         points.into_iter().fold(Self::EMPTY, |b, p| b.grow(p))
     }
 
+    /// The smallest box holding `self` and the point `p`.
     pub fn grow(self, p: Vec3) -> Self {
         Aabb {
             min: self.min.min(p),
@@ -37,6 +42,7 @@ impl Aabb {
         }
     }
 
+    /// The smallest box holding `self` and `o`.
     pub fn union(self, o: Aabb) -> Self {
         Aabb {
             min: self.min.min(o.min),
@@ -44,14 +50,17 @@ impl Aabb {
         }
     }
 
+    /// Whether `min > max` on some axis (a flat box, `min == max`, is not empty).
     pub fn is_empty(&self) -> bool {
         self.min.x > self.max.x || self.min.y > self.max.y || self.min.z > self.max.z
     }
 
+    /// `max - min` per axis, clamped at 0 (zero for the empty box).
     pub fn extent(&self) -> Vec3 {
         (self.max - self.min).max(Vec3::ZERO)
     }
 
+    /// `(min + max) / 2` (NaN for the empty box).
     pub fn center(&self) -> Vec3 {
         (self.min + self.max) * 0.5
     }
@@ -77,6 +86,8 @@ impl Aabb {
         }
     }
 
+    /// Whether `o` lies inside `self`, faces included (the empty box lies
+    /// inside every box).
     pub fn contains(&self, o: &Aabb) -> bool {
         self.min.cmple(o.min).all() && self.max.cmpge(o.max).all()
     }
@@ -95,6 +106,7 @@ impl Aabb {
         ]
     }
 
+    /// The inverse of [`Self::to_array`]: `[min xyz, max xyz]`.
     pub fn from_array(a: &[f32; 6]) -> Self {
         Aabb::new(Vec3::new(a[0], a[1], a[2]), Vec3::new(a[3], a[4], a[5]))
     }
@@ -131,7 +143,10 @@ pub fn widen_down(t: f32) -> f32 {
 /// Per-ray constants of the slab test, computed once per ray.
 #[derive(Clone, Copy, Debug)]
 pub struct BoxRay {
+    /// The ray's origin, xyz.
     pub org: [f32; 3],
+    /// The ray's reciprocal direction, xyz ([`Ray::inv_direction`]: ±inf
+    /// for zero components).
     pub inv: [f32; 3],
     /// Whether the reciprocal direction is negative on each axis (the max
     /// plane is then the near one). `1/-0 = -inf` counts as negative.
@@ -160,6 +175,7 @@ fn min_keep(t: Vec4, acc: Vec4) -> Vec4 {
 }
 
 impl BoxRay {
+    /// The constants of `ray`; its interval is passed to each test instead.
     pub fn new(ray: &Ray) -> Self {
         let o = ray.origin().to_array();
         let inv = ray.inv_direction().to_array();

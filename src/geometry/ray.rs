@@ -101,10 +101,13 @@ impl Ray {
         Self::new(origin, direction, 0.0, f32::INFINITY)
     }
 
+    /// The origin, in scene units.
     pub fn origin(&self) -> Vec3 {
         self.origin
     }
 
+    /// The direction traced (not normalized; subnormal components read as
+    /// zeros, see [`Self::new`]).
     pub fn direction(&self) -> Vec3 {
         self.direction
     }

@@ -19,8 +19,11 @@ pub const TINY_DETERMINANT: f32 = 1.0 / (1u128 << 90) as f32;
 /// A triangle with vertices `a`, `b`, `c`.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub struct Triangle {
+    /// First vertex, in scene units; weighted by `1 - u - v`.
     pub a: Vec3,
+    /// Second vertex; weighted by [`Hit::u`].
     pub b: Vec3,
+    /// Third vertex; weighted by [`Hit::v`].
     pub c: Vec3,
 }
 
@@ -29,9 +32,13 @@ pub struct Triangle {
 /// of the hit point `(1-u-v)·a + u·b + v·c`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Hit {
+    /// Ray parameter of the hit point, within the ray's `[tmin, tmax]`.
     pub t: f32,
+    /// Index of the triangle in the mesh (mesh order, not [`crate::bvh::Bvh::prims`] order).
     pub prim: u32,
+    /// Barycentric weight of vertex `b`.
     pub u: f32,
+    /// Barycentric weight of vertex `c`.
     pub v: f32,
 }
 
@@ -49,14 +56,17 @@ impl Hit {
 }
 
 impl Triangle {
+    /// The triangle `a`, `b`, `c`.
     pub fn new(a: Vec3, b: Vec3, c: Vec3) -> Self {
         Triangle { a, b, c }
     }
 
+    /// The box of the three vertices.
     pub fn bounds(&self) -> Aabb {
         Aabb::from_points([self.a, self.b, self.c])
     }
 
+    /// The mean of the three vertices.
     pub fn centroid(&self) -> Vec3 {
         (self.a + self.b + self.c) * (1.0 / 3.0)
     }

@@ -74,6 +74,9 @@ pub const PAPER_TMIN: f32 = 1e-3;
 /// scene units: `maxT = 1e6`.
 pub const PAPER_EYE_TMAX: f32 = 1e6;
 
+/// What an AO render traces; a pixel's value is the mean over its eye rays
+/// of the unoccluded fraction of their AO rays, or [`Self::background`] for
+/// an eye ray that misses (see [`AoSettings::paper`]).
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct AoSettings {
     /// Eye rays per pixel.

@@ -19,14 +19,20 @@ use std::time::Instant;
 /// One phase's time and work.
 #[derive(Clone, Copy, Debug, Default, Serialize)]
 pub struct Phase {
+    /// Wall-clock time of the phase (its threads in parallel), in seconds.
     pub seconds: f64,
+    /// Rays traced in the phase and, when counted, their work.
     pub counters: Counters,
 }
 
+/// What [`render_ao_phased`] produced and measured.
 #[derive(Clone, Debug)]
 pub struct PhasedAo {
+    /// The AO image, equal to [`super::render`]'s bit for bit.
     pub image: Image,
+    /// The eye rays' phase (closest hit).
     pub eye: Phase,
+    /// The AO rays' phase.
     pub ao: Phase,
 }
 

@@ -44,6 +44,7 @@ impl Measure {
         crate::names::Named::name(self)
     }
 
+    /// The field of `t` this measure counts.
     pub fn of(self, t: &Tally) -> u32 {
         match self {
             Measure::Nodes => t.nodes,
@@ -56,8 +57,11 @@ impl Measure {
 /// The work of every pixel (all its rays), row-major, top row first.
 #[derive(Clone, Debug, PartialEq)]
 pub struct WorkImage {
+    /// Pixels per row.
     pub width: usize,
+    /// Rows.
     pub height: usize,
+    /// `width · height` tallies, each summed over the pixel's rays.
     pub pixels: Vec<Tally>,
 }
 
@@ -86,6 +90,7 @@ pub fn colour(x: f32) -> [u8; 3] {
 /// What a written heat map shows.
 #[derive(Clone, Debug, Serialize)]
 pub struct HeatmapInfo {
+    /// The counter shown.
     pub measure: Measure,
     /// The value drawn white (and every larger one): by default the 99.5th
     /// percentile of the per-pixel counts, so that a few outliers do not
@@ -93,6 +98,7 @@ pub struct HeatmapInfo {
     pub scale_top: u32,
     /// The largest per-pixel count.
     pub max: u32,
+    /// The mean per-pixel count.
     pub mean: f64,
 }
 
@@ -105,7 +111,8 @@ impl WorkImage {
     /// Writes the heat map of `m` as an RGB PNG: the image, then a bar of the
     /// colour scale from 0 (left) to the top of the scale (right, see
     /// [`HeatmapInfo::scale_top`]), `max(8, height/16)` pixels high, under a
-    /// one-pixel gap, labelled by [`label_bar`].
+    /// one-pixel gap, labelled by [`label_bar`]. [`crate::error::Error::Io`]
+    /// when writing fails.
     pub fn save(&self, m: Measure, path: &Path) -> Result<HeatmapInfo> {
         self.save_scaled(m, path, None)
     }

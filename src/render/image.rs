@@ -26,8 +26,8 @@ impl ImageFormat {
     pub const KNOWN: &'static str = ".png, .jpg (or .jpeg), .ppm or .exr";
 
     /// The format of `path` by its extension (any case); `-`, standard
-    /// output, is PNG. An unknown or missing extension is an error that
-    /// names the path and the formats known.
+    /// output, is PNG. An unknown or missing extension is an
+    /// [`Error::Invalid`] that names the path and the formats known.
     pub fn of(path: &Path) -> Result<ImageFormat> {
         if is_stdout(path) {
             return Ok(ImageFormat::Png);
@@ -59,15 +59,19 @@ pub fn is_stdout(path: &Path) -> bool {
     path.as_os_str() == "-"
 }
 
+/// A grey-scale image of linear f32 values (radiance or occlusion, 0 = black).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Image {
+    /// Pixels per row.
     pub width: usize,
+    /// Rows.
     pub height: usize,
     /// Linear values, row-major, top row first.
     pub pixels: Vec<f32>,
 }
 
 impl Image {
+    /// A black image: `width · height` zeros.
     pub fn new(width: usize, height: usize) -> Self {
         Image {
             width,
@@ -76,15 +80,18 @@ impl Image {
         }
     }
 
+    /// Sets pixel (`x`, `y`), `y` counted from the top; panics outside the image.
     pub fn set(&mut self, x: usize, y: usize, v: f32) {
         self.pixels[y * self.width + x] = v;
     }
 
+    /// Pixel (`x`, `y`), `y` counted from the top; panics outside the image.
     pub fn get(&self, x: usize, y: usize) -> f32 {
         self.pixels[y * self.width + x]
     }
 
-    /// 8-bit sRGB values, clamped to [0, 1] first.
+    /// 8-bit sRGB values, clamped to [0, 1] first (NaN as 0), one per pixel
+    /// in [`Self::pixels`] order.
     pub fn to_srgb8(&self) -> Vec<u8> {
         self.pixels
             .iter()
@@ -112,6 +119,8 @@ impl Image {
 
     /// Writes the image in the format of `path`'s extension (see
     /// [`ImageFormat::of`]); `-` writes PNG to standard output.
+    /// [`Error::Invalid`] for an unknown extension, [`Error::Io`] when
+    /// writing fails.
     pub fn save(&self, path: &Path) -> Result<()> {
         let format = ImageFormat::of(path)?;
         if is_stdout(path) {
@@ -187,7 +196,8 @@ pub fn remove_unfinished_files() {
 
 /// Runs `f` on a temporary file beside `path`, then renames it to `path`.
 /// On failure the temporary file is removed and `path` is untouched; on an
-/// interrupt, [`remove_unfinished_files`] removes it.
+/// interrupt, [`remove_unfinished_files`] removes it. Any failure, of `f`
+/// or of the file system, is an [`Error::Io`] naming `path`.
 pub fn write_atomically(
     path: &Path,
     f: impl FnOnce(&mut std::io::BufWriter<std::fs::File>) -> std::io::Result<()>,

@@ -26,18 +26,22 @@ use std::time::Instant;
 /// Which integrator, with its settings.
 #[derive(Clone, Debug)]
 pub enum Integrator {
+    /// Ambient occlusion, the stackless paper's workload.
     Ao(AoSettings),
+    /// Diffuse path tracing, the dual-split paper's workload.
     Path(PathSettings),
 }
 
 /// What a render produced and measured.
 #[derive(Clone, Debug)]
 pub struct Rendered {
+    /// The rendered values, `width × height`.
     pub image: Image,
     /// The work of each pixel's rays, for heat maps.
     pub work: heatmap::WorkImage,
     /// Rays traced (eye, AO and bounce rays) and, when counted, the work.
     pub counters: Counters,
+    /// Wall-clock time of the render (its threads in parallel), in seconds.
     pub seconds: f64,
 }
 

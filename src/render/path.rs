@@ -8,12 +8,18 @@ use crate::geometry::Ray;
 use crate::rng::Pcg32;
 use crate::structures::Accel;
 
+/// What a path-traced render traces; a pixel's value is the mean radiance
+/// of its samples.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct PathSettings {
+    /// Paths per pixel, each starting with a jittered eye ray.
     pub samples: u32,
     /// Diffuse bounces after the eye ray.
     pub bounces: u32,
+    /// Reflectance of every surface, in [0, 1]: each bounce multiplies the
+    /// path's throughput by it.
     pub albedo: f32,
+    /// Radiance of the constant sky, reached by a ray that misses.
     pub sky: f32,
 }
 

@@ -17,7 +17,7 @@ pub const LIMIT_VARIABLE: &str = "RAYTREE_MEMORY_LIMIT";
 
 /// Memory the system can give without swapping (`MemAvailable` of
 /// `/proc/meminfo`), where the system says, capped by [`LIMIT_VARIABLE`].
-/// Fails when the variable is set to something that is not a size.
+/// [`Error::Invalid`] when the variable is set to something that is not a size.
 pub fn available_bytes() -> Result<Option<u64>> {
     let system = (|| {
         let info = std::fs::read_to_string("/proc/meminfo").ok()?;
@@ -35,7 +35,8 @@ pub fn available_bytes() -> Result<Option<u64>> {
     })
 }
 
-/// The value of [`LIMIT_VARIABLE`]: `None` when empty.
+/// The value of [`LIMIT_VARIABLE`] in bytes: `None` when empty,
+/// [`Error::Invalid`] when not a positive size.
 pub fn parse_limit(value: &str) -> Result<Option<u64>> {
     let v = value.trim();
     if v.is_empty() {
@@ -85,8 +86,8 @@ pub fn peak_bytes(triangles: u64) -> u64 {
     triangles.saturating_mul(PEAK_BYTES_PER_TRIANGLE)
 }
 
-/// Refuses `triangles` triangles of `what` when their estimated peak
-/// exceeds `available` bytes (unknown: no check).
+/// Refuses `triangles` triangles of `what` with an [`Error::Limit`] when
+/// their estimated peak exceeds `available` bytes (unknown: no check).
 pub fn check_fits(what: &str, triangles: u64, available: Option<u64>) -> Result<()> {
     let need = peak_bytes(triangles);
     match available {

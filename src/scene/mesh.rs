@@ -7,12 +7,15 @@ use std::path::Path;
 /// Triangle `i` is `indices[i]`: faces in file order, polygons fan-triangulated.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Mesh {
+    /// Vertex positions, in scene units.
     pub positions: Vec<Vec3>,
+    /// One entry per triangle: indices into `positions` of its `a`, `b`, `c`.
     pub indices: Vec<[u32; 3]>,
 }
 
 impl Mesh {
-    /// Loads an OBJ (`.obj`) or PLY (`.ply`) file and validates it.
+    /// Loads an OBJ (`.obj`) or PLY (`.ply`) file and validates it:
+    /// [`Error::Io`] when it cannot be read, [`Error::Parse`] otherwise.
     pub fn load(path: &Path) -> Result<Mesh> {
         let bytes = std::fs::read(path).map_err(|source| Error::Io {
             path: path.into(),
@@ -23,7 +26,8 @@ impl Mesh {
 
     /// Parses the contents `bytes` of an OBJ or PLY file, the format chosen
     /// by `path`'s extension (`path` also names the file in errors), and
-    /// validates the mesh.
+    /// validates the mesh. Any fault (an unknown extension, a malformed
+    /// file, a mesh [`Self::validate`] refuses) is an [`Error::Parse`].
     pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
         let ext = path
             .extension()
@@ -48,10 +52,12 @@ impl Mesh {
         Ok(mesh)
     }
 
+    /// Number of triangles: `indices.len()`.
     pub fn triangle_count(&self) -> usize {
         self.indices.len()
     }
 
+    /// Triangle `i`; panics if `i` or one of its indices is out of range.
     pub fn triangle(&self, i: usize) -> Triangle {
         let [a, b, c] = self.indices[i];
         Triangle::new(
@@ -66,6 +72,7 @@ impl Mesh {
         (0..self.indices.len()).map(|i| self.triangle(i)).collect()
     }
 
+    /// The box of every position, used or not.
     pub fn bounds(&self) -> Aabb {
         Aabb::from_points(self.positions.iter().copied())
     }

@@ -21,13 +21,17 @@ use std::sync::Arc;
 pub struct Scene {
     /// The built-in name with its size (`chess:64000`), or the file path.
     pub name: String,
+    /// The mesh as loaded or generated.
     pub mesh: Mesh,
     /// `triangles[i]` is triangle `i` of the mesh, in file order.
     pub triangles: Arc<[Triangle]>,
+    /// The view renders use: the file's framing, or the built-in scene's own.
     pub camera: Camera,
 }
 
 impl Scene {
+    /// A scene named `name` over `mesh` seen by `camera`; expands the
+    /// triangles (panics on an index out of range: validate the mesh first).
     pub fn new(name: impl Into<String>, mesh: Mesh, camera: Camera) -> Self {
         let triangles = mesh.triangles().into();
         Scene {
@@ -39,6 +43,9 @@ impl Scene {
     }
 
     /// A scene from an OBJ or PLY file, with a camera that frames its bounds.
+    /// Errors as [`Mesh::load`]; [`Error::Limit`] when the scene would not
+    /// fit in the memory available ([`memory::check_fits`]), [`Error::Invalid`]
+    /// for a malformed [`memory::LIMIT_VARIABLE`].
     pub fn load(path: impl AsRef<Path>) -> Result<Scene> {
         let path = path.as_ref();
         let mesh = Mesh::load(path)?;
@@ -75,13 +82,13 @@ impl Scene {
     pub const STACKLESS_CHESS_AO_RADIUS: f32 = 32.0;
 
     /// A built-in scene by `name` or `name:size`, size being the approximate
-    /// triangle count: see [`procedural::BUILTIN`].
+    /// triangle count: see [`procedural::BUILTIN`]. Errors as [`procedural::build`].
     pub fn builtin(spec: &str) -> Result<Scene> {
         procedural::build(spec)
     }
 
     /// A built-in scene name (`chess`, `hairball:300000`) or a path to an OBJ
-    /// or PLY file.
+    /// or PLY file; [`Error::Invalid`] when it is neither.
     pub fn from_spec(spec: &str) -> Result<Scene> {
         if procedural::is_builtin(spec) {
             Scene::builtin(spec)

@@ -205,8 +205,8 @@ impl TraversalKind {
     }
 }
 
-/// Whether `structure` with `traversal` can be built, with the reason if
-/// not: a traversal for a structure that has its own.
+/// Whether `structure` with `traversal` can be built: [`Error::Invalid`]
+/// for a traversal other than STACK on a structure that has its own.
 pub fn check(structure: StructureKind, traversal: TraversalKind) -> Result<()> {
     if structure != StructureKind::Bvh && traversal != TraversalKind::Stack {
         return Err(Error::Invalid(format!(
@@ -234,29 +234,49 @@ impl Default for LayoutOptions {
 }
 
 /// A structure, built and ready to trace.
+/// One variant per structure × traversal pair, each holding its concrete
+/// type so that [`Built::with`] can monomorphize.
 pub enum Built {
+    /// `bvh` with STACK over the binary layout.
     Bvh(BinaryBvh),
+    /// STACK over the sparse layout (for ratios on the same nodes).
     StackOnSparse(OnSparse<StackOnSparse>),
+    /// SPARSE: the stackless paper's Algorithm 4.
     Sparse(OnSparse<Sparse>),
+    /// HAPALA over the sparse layout.
     Hapala(OnSparse<Hapala>),
+    /// LAINE-0 over the sparse layout.
     Laine0(OnSparse<Laine<0>>),
+    /// LAINE-1 over the sparse layout.
     Laine1(OnSparse<Laine<1>>),
+    /// LAINE-2 over the sparse layout.
     Laine2(OnSparse<Laine<2>>),
+    /// LAINE-4 over the sparse layout.
     Laine4(OnSparse<Laine<4>>),
+    /// LAINE-8 over the sparse layout.
     Laine8(OnSparse<Laine<8>>),
+    /// IMPLICIT-A: the stackless paper's Algorithm 2.
     ImplicitA(OnImplicit<ImplicitA>),
+    /// IMPLICIT-B: the stackless paper's Algorithm 3.
     ImplicitB(OnImplicit<ImplicitB>),
+    /// `dst` or `dst-similar`.
     Dst(DualSplitTree),
+    /// `bih`.
     Bih(Bih),
+    /// `htree`.
     Htree(HTree),
+    /// `cbvh`.
     Cbvh(CompactBvh),
+    /// `brute`, the oracle.
     Brute(BruteForce),
 }
 
 /// What a structure reports about itself.
 #[derive(Clone, Debug, Serialize)]
 pub struct StructureInfo {
+    /// The structure built.
     pub structure: StructureKind,
+    /// Its traversal, for `bvh` only (the others have their own).
     pub traversal: Option<TraversalKind>,
     /// The layout the traversal runs over: `binary` (52-byte inner nodes),
     /// `sparse` or `implicit` (32-byte own-box nodes), or the structure's own.
@@ -264,15 +284,21 @@ pub struct StructureInfo {
     /// Node and index bytes in memory (for the implicit layout, the pages
     /// that hold nodes).
     pub bytes: usize,
+    /// Bytes of the nodes (for the implicit layout, its resident pages).
     pub node_bytes: usize,
+    /// Bytes of the triangle index lists the leaves refer to.
     pub index_bytes: usize,
     /// Address space reserved (implicit layout only).
     pub reserved_bytes: Option<usize>,
+    /// Nodes that are not leaves (for a dual-split tree or a BIH, splitting
+    /// and carving nodes; for an H-tree, split and bounding nodes).
     pub inner_nodes: usize,
+    /// Nodes that hold triangles (carving leaves included).
     pub leaves: usize,
-    /// Per-ray traversal state, counted as the stackless paper's Figure 5.
+    /// Per-ray traversal state in bytes, counted as the stackless paper's
+    /// Figure 5 ([`state_bytes`]); `bvh` only.
     pub state_bytes: Option<usize>,
-    /// Time to derive it from the canonical BVH.
+    /// Time to derive it from the canonical BVH, in seconds.
     pub conversion_seconds: f64,
     /// Node kinds and carving levels of a dual-split tree (or a BIH: its
     /// split nodes and single-axis carving, i.e. clip, nodes).
@@ -284,12 +310,19 @@ pub struct StructureInfo {
 /// A computation over any structure: [`Built::with`] calls `run` with the
 /// concrete type, so that the trace loop inside is monomorphized.
 pub trait WithAccel {
+    /// What the computation returns.
     type Output;
+    /// The computation, on the structure as its concrete type.
     fn run<A: Accel>(self, accel: &A) -> Self::Output;
 }
 
 impl Built {
-    /// Derives `structure` (traversed by `traversal`) from `bvh`.
+    /// Derives `structure` (traversed by `traversal`) from `bvh` over
+    /// `triangles` (the mesh's, in mesh order). [`Error::Invalid`] for a pair
+    /// [`check`] refuses, or a `cbvh` over a BVH whose boxes are not the
+    /// exact unions of their children's; [`Error::Limit`] for a tree the
+    /// layout cannot hold (too deep, too many nodes, an offset or a
+    /// reservation too large).
     pub fn new(
         structure: StructureKind,
         traversal: TraversalKind,
@@ -407,7 +440,8 @@ impl Built {
     }
 
     /// Traversal `t` over an existing sparse layout; STACK means STACK over
-    /// the sparse layout here.
+    /// the sparse layout here. [`Error::Invalid`] for IMPLICIT-A/B;
+    /// [`Error::Limit`] for a tree deeper than the traversal can follow.
     pub fn sparse(t: TraversalKind, sp: Arc<SparseBvh>) -> Result<Built> {
         use TraversalKind::*;
         Ok(match t {
@@ -428,6 +462,7 @@ impl Built {
         })
     }
 
+    /// Runs `w` on the structure held, as its concrete type.
     pub fn with<W: WithAccel>(&self, w: W) -> W::Output {
         match self {
             Built::Bvh(a) => w.run(a),

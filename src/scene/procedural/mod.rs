@@ -13,8 +13,12 @@ use crate::error::{Error, Result};
 
 /// A built-in scene: its name, default size and what it is like.
 pub struct Builtin {
+    /// The name a spec starts with (`chess`).
     pub name: &'static str,
+    /// The approximate triangle count built when the spec gives none.
     pub default_triangles: usize,
+    /// One line on what the scene is like (and the paper scene it stands in
+    /// for, if any).
     pub about: &'static str,
     make: fn(usize) -> Scene,
 }
@@ -63,7 +67,10 @@ pub fn is_builtin(spec: &str) -> bool {
 }
 
 /// Builds `name` or `name:size`; size is an approximate triangle count and
-/// may end in `k` or `M` (`hairball:3M`).
+/// may end in `k` or `M` (`hairball:3M`). [`Error::Invalid`] for an unknown
+/// name, a size that is malformed or outside [`SIZE_RANGE`], or a malformed
+/// [`super::memory::LIMIT_VARIABLE`]; [`Error::Limit`] when the scene would
+/// not fit in the memory available.
 pub fn build(spec: &str) -> Result<Scene> {
     let (name, size) = match spec.split_once(':') {
         Some((n, s)) => (n, Some(parse_size(s)?)),

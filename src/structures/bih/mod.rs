@@ -43,7 +43,8 @@ pub struct Bih {
 }
 
 impl Bih {
-    /// Converts `bvh`, keeping its partitioning.
+    /// Converts `bvh`, keeping its partitioning. Errors as
+    /// [`DualSplitTree::from_bvh`] ([`crate::error::Error::Limit`]).
     pub fn from_bvh(bvh: &Bvh, triangles: Arc<[Triangle]>) -> Result<Self> {
         Ok(Bih {
             tree: DualSplitTree::with_rules(bvh, triangles, Rules::BIH)?,

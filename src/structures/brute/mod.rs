@@ -1,3 +1,6 @@
+//! Brute force: every triangle tested for every ray, the oracle every
+//! structure is checked against.
+
 use super::Accel;
 use crate::geometry::{Hit, Ray, Triangle};
 use crate::stats::{Stats, Tally};
@@ -12,6 +15,8 @@ pub struct BruteForce {
 }
 
 impl BruteForce {
+    /// The oracle over `triangles` (mesh order); 4 bytes per non-degenerate
+    /// triangle.
     pub fn new(triangles: Arc<[Triangle]>) -> Self {
         let live = (0..triangles.len() as u32)
             .filter(|&i| !triangles[i as usize].is_degenerate())

@@ -45,6 +45,8 @@ const OFFSET_MASK: u32 = (1 << 30) - 1;
 /// for a leaf.
 pub type NodeRef = u32;
 
+/// The uncompressed binary BVH (52-byte inner nodes, 4-byte leaves; see the
+/// module docs), traversed by STACK.
 #[derive(Clone, Debug)]
 pub struct BinaryBvh {
     pub(crate) words: Vec<u32>,
@@ -64,8 +66,8 @@ pub struct BinaryBvh {
 impl BinaryBvh {
     /// Lays out `bvh` over `triangles` (the ones it was built from).
     ///
-    /// Refuses a tree deeper than the traversal stack ([`MAX_STACK_DEPTH`])
-    /// or one whose nodes pass 2³⁰ words.
+    /// [`Error::Limit`] for a tree deeper than the traversal stack
+    /// ([`MAX_STACK_DEPTH`]) or one whose nodes pass 2³⁰ words.
     pub fn from_bvh(bvh: &Bvh, triangles: Arc<[Triangle]>) -> Result<Self> {
         if bvh.stats.depth as usize >= MAX_STACK_DEPTH {
             return Err(Error::Limit(format!(
@@ -162,10 +164,12 @@ impl BinaryBvh {
         self.ids[k]
     }
 
+    /// Nodes with two children (13 words each).
     pub fn inner_nodes(&self) -> usize {
         self.inner_nodes
     }
 
+    /// Leaf nodes (1 word each).
     pub fn leaves(&self) -> usize {
         self.leaves
     }
@@ -180,6 +184,7 @@ impl BinaryBvh {
         self.index.len() * 4
     }
 
+    /// Whether the tree holds no triangles.
     pub fn is_empty(&self) -> bool {
         self.index.is_empty()
     }

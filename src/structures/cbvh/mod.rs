@@ -53,8 +53,15 @@ const OWNER_SHIFT: u32 = 28;
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[repr(C, align(32))]
 pub struct CbvhNode {
+    /// Per axis xyz, the minimum of the child that does not own the parent's
+    /// minimum.
     pub lo: [f32; 3],
+    /// Per axis xyz, the maximum of the child that does not own the parent's
+    /// maximum.
     pub hi: [f32; 3],
+    /// Child 0's and child 1's references (bit 31 leaf, bits 0–27 index),
+    /// with the owners of the parent's minima (`refs[0]`) and maxima
+    /// (`refs[1]`) in bits 28–30, for x, y, z.
     pub refs: [u32; 2],
 }
 
@@ -122,10 +129,10 @@ pub struct CompactBvh {
 }
 
 impl CompactBvh {
-    /// Converts `bvh`. Refuses a BVH whose parent boxes are not the exact
-    /// unions of their children's (the encoding needs them), one deeper than
-    /// the traversal stack, and one with more than 2²⁸ nodes or triangle
-    /// references.
+    /// Converts `bvh`. [`Error::Invalid`] for a BVH whose parent boxes are
+    /// not the exact unions of their children's (the encoding needs them);
+    /// [`Error::Limit`] for one deeper than the traversal stack, or with more
+    /// than 2²⁸ nodes or triangle references.
     pub fn from_bvh(bvh: &Bvh, triangles: Arc<[Triangle]>) -> Result<Self> {
         if bvh.stats.depth as usize >= MAX_STACK_DEPTH {
             return Err(Error::Limit(format!(
@@ -202,23 +209,28 @@ impl CompactBvh {
         }
     }
 
+    /// The inner nodes, depth-first; the root is node 0.
     pub fn nodes(&self) -> &[CbvhNode] {
         &self.nodes
     }
 
+    /// Mesh triangle indices of the leaves, each leaf's last one with
+    /// [`LAST`] set.
     pub fn index_list(&self) -> &[u32] {
         &self.index
     }
 
-    /// The root's reference ([`LEAF`] set when the tree is a single leaf).
+    /// The root's reference (bit 31 set when the tree is a single leaf).
     pub fn root(&self) -> u32 {
         self.root
     }
 
+    /// The scene box, from which the root's children are rebuilt.
     pub fn root_bounds(&self) -> Aabb {
         self.root_bounds
     }
 
+    /// Whether the tree holds no triangles.
     pub fn is_empty(&self) -> bool {
         self.index.is_empty()
     }
@@ -233,6 +245,7 @@ impl CompactBvh {
         self.index.len() * 4
     }
 
+    /// Leaves, which take no node of their own (a reference holds each).
     pub fn leaves(&self) -> usize {
         self.leaf_ids.len()
     }

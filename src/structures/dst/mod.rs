@@ -2,9 +2,10 @@
 //! axis-aligned planes per node, in splitting nodes and carving nodes, with
 //! compact 4- and 12-byte nodes, converted from the canonical BVH.
 //!
-//! - [`node`]: the bit-exact encoding and its decoder;
-//! - [`plan`]: the SAH choice of carving nodes (equation 1);
-//! - [`convert`]: the identical and similar conversions;
+//! - [`node`]: the bit-exact encoding of §4.1 and its decoder;
+//! - [`plan`]: the SAH choice of carving nodes (§4.2, equation 1);
+//! - [`bound`]: the least storage any identical conversion can have;
+//! - `convert.rs`: the identical and similar conversions (§4.2);
 //! - traversal: `traverse.rs`.
 
 pub mod bound;
@@ -31,8 +32,11 @@ use super::shared::leaf::LAST;
 /// The paper's Tables 1–3 for one tree.
 #[derive(Clone, Debug, Default, Serialize, PartialEq)]
 pub struct DstStats {
+    /// Splitting nodes (§3.1), 12 bytes each.
     pub split_nodes: usize,
+    /// Single-axis carving nodes (§3.2), 12 bytes each, leaves included.
     pub carve_single: usize,
+    /// Dual-axis carving nodes (§3.2), 12 bytes each, leaves included.
     pub carve_dual: usize,
     /// Carving nodes that are leaves (counted in the two above as well).
     pub carving_leaves: usize,
@@ -41,19 +45,25 @@ pub struct DstStats {
     /// How many children of splitting nodes have 0, 1, 2 and 3 carving
     /// levels below them.
     pub carving_levels: [usize; 4],
+    /// Bytes of the encoded nodes (4 per plain leaf, 12 per other node).
     pub node_bytes: usize,
+    /// Bytes of the triangle index list: 4 per triangle reference.
     pub index_bytes: usize,
     /// The least bytes of any identical conversion of the same BVH
     /// ([`bound::least_identical_bytes`]).
     pub least_identical_bytes: usize,
+    /// Time to convert from the BVH, in seconds.
     pub conversion_seconds: f64,
 }
 
 impl DstStats {
+    /// Nodes of every kind: splitting, carving (leaves included) and plain
+    /// leaves.
     pub fn nodes(&self) -> usize {
         self.split_nodes + self.carve_single + self.carve_dual + self.plain_leaves
     }
 
+    /// Nodes that hold triangles: plain leaves and carving leaves.
     pub fn leaves(&self) -> usize {
         self.plain_leaves + self.carving_leaves
     }
@@ -70,13 +80,14 @@ pub struct DualSplitTree {
     rules: Rules,
     /// The BVH's depth: a bound on the traversal stack.
     pub(crate) depth: u32,
+    /// Node counts and storage of this tree.
     pub stats: DstStats,
 }
 
 impl DualSplitTree {
     /// Converts `bvh`: with `similar`, the approximate conversion (§4.2.2);
-    /// otherwise the identical one (§4.2.1). Refuses a BVH deeper than the
-    /// traversal stack and a tree whose offsets pass 26 bits.
+    /// otherwise the identical one (§4.2.1). [`Error::Limit`] for a BVH
+    /// deeper than the traversal stack or a tree whose offsets pass 26 bits.
     pub fn from_bvh(bvh: &Bvh, triangles: Arc<[Triangle]>, similar: bool) -> Result<Self> {
         let rules = if similar {
             Rules::SIMILAR
@@ -88,6 +99,7 @@ impl DualSplitTree {
 
     /// Converts `bvh` under `rules` (also used for the BIH, which is a
     /// dual-split tree without dual-axis nodes: [`crate::structures::Bih`]).
+    /// Errors as [`Self::from_bvh`].
     pub fn with_rules(bvh: &Bvh, triangles: Arc<[Triangle]>, rules: Rules) -> Result<Self> {
         let start = std::time::Instant::now();
         if bvh.stats.depth as usize >= MAX_STACK_DEPTH {
@@ -136,11 +148,12 @@ impl DualSplitTree {
         self.rules
     }
 
+    /// Whether the tree holds no triangles.
     pub fn is_empty(&self) -> bool {
         self.index.is_empty()
     }
 
-    /// The node at word `at`.
+    /// The node at word `at` of [`Self::words`], decoded.
     pub fn node(&self, at: usize) -> DstNode {
         DstNode::decode(&self.words[at..])
     }

@@ -32,29 +32,49 @@ pub enum DstNode {
     /// Two planes on `axis`: the first child's maximum and the second
     /// child's minimum. `first_words` is the first child's size (1 or 3).
     Split {
+        /// The splitting axis: 0 = x, 1 = y, 2 = z.
         axis: u8,
+        /// `[first child's maximum, second child's minimum]` on `axis`, in
+        /// scene units.
         planes: [f32; 2],
+        /// Words of the first child (1 or 3): the second child follows it.
         first_words: u8,
+        /// Words from this node to its first child (26 bits).
         offset: u32,
     },
     /// The non-empty region is `planes[0] ..= planes[1]` on `axis`.
     CarveSingle {
+        /// The carving axis: 0 = x, 1 = y, 2 = z.
         axis: u8,
+        /// `[minimum, maximum]` of the non-empty region on `axis`, in scene units.
         planes: [f32; 2],
+        /// Whether the node is a leaf: `offset` then indexes the triangle list.
         leaf: bool,
+        /// Words to the only child, or for a leaf its first triangle's
+        /// position in the index list (26 bits).
         offset: u32,
     },
     /// Plane `k` bounds axis `axes[k]`, as its minimum (`max_side[k] =
     /// false`) or maximum.
     CarveDual {
+        /// The two axes, ascending: xy, xz or yz (`[0, 1]`, `[0, 2]`, `[1, 2]`).
         axes: [u8; 2],
+        /// Per plane, whether it is the region's maximum on its axis (the
+        /// header's corner bits, Figure 5).
         max_side: [bool; 2],
+        /// Plane positions on `axes[0]` and `axes[1]`, in scene units.
         planes: [f32; 2],
+        /// Whether the node is a leaf: `offset` then indexes the triangle list.
         leaf: bool,
+        /// Words to the only child, or for a leaf its first triangle's
+        /// position in the index list (26 bits).
         offset: u32,
     },
     /// Triangles from `offset` in the index list.
-    Leaf { offset: u32 },
+    Leaf {
+        /// Position of the leaf's first triangle in the index list (26 bits).
+        offset: u32,
+    },
 }
 
 /// Header of a plain leaf.
@@ -71,7 +91,7 @@ pub(super) const fn is_split(h: u32) -> bool {
 /// traversal decodes single- and dual-axis nodes alike by one table lookup
 /// of the header, [`CARVE_FACES`], instead of branching on their kind.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct CarveFaces {
+pub(super) struct CarveFaces {
     pub faces: [u8; 2],
     pub leaf: bool,
 }
@@ -131,6 +151,7 @@ impl DstNode {
         }
     }
 
+    /// Whether the node holds triangles: a plain leaf or a carving leaf.
     pub fn is_leaf(&self) -> bool {
         match *self {
             DstNode::Leaf { .. } => true,
@@ -139,8 +160,8 @@ impl DstNode {
         }
     }
 
-    /// Appends the node's words. An offset that does not fit 26 bits is an
-    /// error naming the limit.
+    /// Appends the node's words (1 or 3). An offset that does not fit 26
+    /// bits is an [`Error::Limit`] naming the limit.
     pub fn encode(&self, out: &mut Vec<u32>) -> Result<()> {
         let (header, offset, planes) = match *self {
             DstNode::Split {

@@ -21,8 +21,11 @@ pub const MAX_LEVELS: usize = 3;
 /// bounds the region from above, and its position.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Plane {
+    /// 0 = x, 1 = y, 2 = z.
     pub axis: u8,
+    /// Whether the plane is the region's maximum (empty space above it).
     pub max_side: bool,
+    /// Position on `axis`, in scene units.
     pub at: f32,
 }
 
@@ -30,12 +33,25 @@ pub struct Plane {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum CarveOp {
     /// The region becomes `lo ..= hi` on `axis`.
-    Single { axis: u8, lo: f32, hi: f32 },
+    Single {
+        /// 0 = x, 1 = y, 2 = z.
+        axis: u8,
+        /// The region's new minimum on `axis` (its old one if uncarved).
+        lo: f32,
+        /// The region's new maximum on `axis` (its old one if uncarved).
+        hi: f32,
+    },
     /// Two planes on two different axes (`a.axis < b.axis`).
-    Dual { a: Plane, b: Plane },
+    Dual {
+        /// The plane on the lower axis.
+        a: Plane,
+        /// The plane on the higher axis.
+        b: Plane,
+    },
 }
 
 impl CarveOp {
+    /// The region `cell` left after this node carves it.
     pub fn apply(&self, cell: &Aabb) -> Aabb {
         let mut c = *cell;
         let mut cut = |p: &Plane| {
@@ -66,6 +82,8 @@ impl CarveOp {
         c
     }
 
+    /// The node's traversal cost `σ` relative to a triangle test:
+    /// [`SIGMA_SINGLE`] or [`SIGMA_DUAL`].
     pub fn sigma(&self) -> f32 {
         match self {
             CarveOp::Single { .. } => SIGMA_SINGLE,
@@ -127,8 +145,11 @@ impl Rules {
 /// The chosen carving nodes, their cost and the region they leave.
 #[derive(Clone, Debug)]
 pub struct Plan {
+    /// The carving nodes, outermost first (at most [`MAX_LEVELS`]).
     pub ops: Vec<CarveOp>,
+    /// The child's cost `C` of equation 1 with `C_I = 1`.
     pub cost: f32,
+    /// The child's region after the last carving node.
     pub cell: Aabb,
 }
 

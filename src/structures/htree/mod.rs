@@ -6,7 +6,7 @@
 //!
 //! - [`node`]: the encoding (12-byte split nodes, bounding nodes of 4 bytes
 //!   plus 4 per stored face, 4-byte leaves);
-//! - [`convert`]: the SAH conversion;
+//! - `convert.rs`: the SAH conversion;
 //! - traversal: `traverse.rs`.
 //!
 //! Choices where the papers are open (baselines.md §5, §8): a bounding node
@@ -34,17 +34,24 @@ use super::shared::leaf::LAST;
 /// Node counts and storage of an H-tree.
 #[derive(Clone, Debug, Default, Serialize, PartialEq)]
 pub struct HtreeStats {
+    /// Split nodes, 12 bytes each.
     pub split_nodes: usize,
+    /// Bounding nodes, 4 bytes plus 4 per stored face.
     pub bound_nodes: usize,
+    /// Leaves, 4 bytes each.
     pub leaves: usize,
     /// Bounding nodes by the number of faces they store (index 1 to 6).
     pub bound_faces: [usize; 7],
+    /// Bytes of the encoded nodes.
     pub node_bytes: usize,
+    /// Bytes of the triangle index list: 4 per triangle reference.
     pub index_bytes: usize,
+    /// Time to convert from the BVH, in seconds.
     pub conversion_seconds: f64,
 }
 
 impl HtreeStats {
+    /// Nodes of every kind.
     pub fn nodes(&self) -> usize {
         self.split_nodes + self.bound_nodes + self.leaves
     }
@@ -60,12 +67,14 @@ pub struct HTree {
     pub(crate) root_bounds: Aabb,
     /// A bound on the traversal stack: split nodes on any path.
     pub(crate) depth: u32,
+    /// Node counts and storage of this tree.
     pub stats: HtreeStats,
 }
 
 impl HTree {
-    /// Converts `bvh`. Refuses a BVH deeper than the traversal stack and a
-    /// tree whose offsets do not fit their fields.
+    /// Converts `bvh` (keeping its partitioning). [`Error::Limit`] for a BVH
+    /// deeper than the traversal stack or a tree whose offsets do not fit
+    /// their fields.
     pub fn from_bvh(bvh: &Bvh, triangles: Arc<[Triangle]>) -> Result<Self> {
         let start = std::time::Instant::now();
         if bvh.stats.depth as usize >= MAX_STACK_DEPTH {
@@ -149,15 +158,17 @@ impl HTree {
         &self.index
     }
 
+    /// The scene box, tested before the root.
     pub fn root_bounds(&self) -> Aabb {
         self.root_bounds
     }
 
+    /// Whether the tree holds no triangles.
     pub fn is_empty(&self) -> bool {
         self.index.is_empty()
     }
 
-    /// The node at word `at`.
+    /// The node at word `at` of [`Self::words`], decoded.
     pub fn node(&self, at: usize) -> HNode {
         HNode::decode(&self.words[at..])
     }

@@ -33,15 +33,29 @@ pub enum HNode {
     /// Two planes on `axis`: the first child's maximum and the second
     /// child's minimum; the second child is `second` words on.
     Split {
+        /// The splitting axis: 0 = x, 1 = y, 2 = z.
         axis: u8,
+        /// `[first child's maximum, second child's minimum]` on `axis`, in
+        /// scene units; they may overlap.
         planes: [f32; 2],
+        /// Words from this node to its second child (28 bits).
         second: u32,
     },
     /// The faces in `mask` (see the module documentation), `planes[..n]`
     /// with `n = mask.count_ones()`.
-    Bound { mask: u8, planes: [f32; 6] },
+    Bound {
+        /// Bit `k` set: face `k` of `[min x, min y, min z, max x, max y,
+        /// max z]` is stored (1 to 63).
+        mask: u8,
+        /// The stored faces' positions in mask order, in scene units; the
+        /// entries past `mask.count_ones()` are unused.
+        planes: [f32; 6],
+    },
     /// Triangles from `offset` in the index list.
-    Leaf { offset: u32 },
+    Leaf {
+        /// Position of the leaf's first triangle in the index list (30 bits).
+        offset: u32,
+    },
 }
 
 impl HNode {
@@ -54,8 +68,8 @@ impl HNode {
         }
     }
 
-    /// Appends the node's words; an offset beyond its field is an error
-    /// naming the limit.
+    /// Appends the node's words; an offset beyond its field is an
+    /// [`Error::Limit`] naming the limit.
     pub fn encode(&self, out: &mut Vec<u32>) -> Result<()> {
         let too_big = |what: &str, v: u32, max: u32| {
             Err(Error::Limit(format!(

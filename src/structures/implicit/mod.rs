@@ -30,6 +30,8 @@ pub const DEFAULT_RESERVATION_LIMIT: u64 = 64 << 30;
 
 const PAGE: usize = 4096;
 
+/// The canonical BVH at heap positions, in [`OwnBoxNode`]s (32 bytes each) of
+/// one reserved mapping of 32 × 2^(depth+1) bytes; see the module docs.
 pub struct ImplicitBvh {
     map: MmapMut,
     pub(crate) index: Vec<u32>,
@@ -51,9 +53,9 @@ impl std::fmt::Debug for ImplicitBvh {
 }
 
 impl ImplicitBvh {
-    /// Lays out `bvh` at its heap positions. Refuses a tree deeper than
-    /// [`MAX_DEPTH`] or whose reservation (32 bytes × 2^(depth+1)) passes
-    /// `reservation_limit` bytes.
+    /// Lays out `bvh` at its heap positions. [`Error::Limit`] for a tree
+    /// deeper than [`MAX_DEPTH`], whose reservation (32 bytes × 2^(depth+1))
+    /// passes `reservation_limit` bytes, or that the system cannot map.
     pub fn from_bvh(bvh: &Bvh, triangles: Arc<[Triangle]>, reservation_limit: u64) -> Result<Self> {
         let depth = bvh.stats.depth;
         let advice = "use the hybrid builder (--builder hybrid), whose median splits keep the tree balanced and shallow";
@@ -129,10 +131,13 @@ impl ImplicitBvh {
         bytemuck::cast_slice(&self.map[..])
     }
 
+    /// The root's box, in scene units ([`Aabb::EMPTY`] for a tree over no
+    /// triangles).
     pub fn bounds(&self) -> Aabb {
         Aabb::from_array(&self.slots()[1].bounds)
     }
 
+    /// Whether the tree holds no triangles.
     pub fn is_empty(&self) -> bool {
         self.index.is_empty()
     }
@@ -147,14 +152,17 @@ impl ImplicitBvh {
         self.resident
     }
 
+    /// Nodes of the tree (gaps not counted).
     pub fn node_count(&self) -> usize {
         self.node_count
     }
 
+    /// Nodes with two children.
     pub fn inner_nodes(&self) -> usize {
         self.inner_nodes
     }
 
+    /// Bytes of the sign-terminated triangle index list: 4 per triangle reference.
     pub fn index_bytes(&self) -> usize {
         self.index.len() * 4
     }
@@ -162,7 +170,10 @@ impl ImplicitBvh {
 
 /// An algorithm over the implicit layout.
 pub trait ImplicitAlgorithm: Send + Sync + 'static {
+    /// The traversal's registry entry.
     const KIND: TraversalKind;
+    /// Traces `ray` over `layout`: the closest hit, or with `ANY` the first
+    /// hit found.
     fn trace<S: Stats, const ANY: bool>(
         layout: &ImplicitBvh,
         ray: &Ray,
@@ -193,11 +204,14 @@ impl ImplicitAlgorithm for ImplicitB {
 
 /// An implicit-layout algorithm with its layout.
 pub struct OnImplicit<A: ImplicitAlgorithm> {
+    /// The layout, shared with other algorithms over it.
     pub layout: Arc<ImplicitBvh>,
     _a: PhantomData<A>,
 }
 
 impl<A: ImplicitAlgorithm> OnImplicit<A> {
+    /// `A` over `layout`. Infallible: [`ImplicitBvh::from_bvh`] already
+    /// refused trees deeper than [`MAX_DEPTH`], which both algorithms address.
     pub fn new(layout: Arc<ImplicitBvh>) -> Self {
         OnImplicit {
             layout,

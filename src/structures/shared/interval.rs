@@ -27,8 +27,12 @@ const _: () = assert!(SLACK * (1.0 - 4.0 * f32::EPSILON) > ROBUST_WIDENING);
 /// slack is 0.
 #[derive(Clone, Copy, Debug)]
 pub struct PlaneRay {
+    /// The ray's origin, xyz.
     pub org: [f32; 3],
+    /// The ray's reciprocal direction, xyz (±inf for zero components).
     pub inv: [f32; 3],
+    /// Whether `inv` is negative on each axis (`-inf` included): the
+    /// maximum face is then the one entered.
     pub neg: [bool; 3],
     slack: [f32; 3],
     /// What [`Self::clip`] adds to a face's distance for `tmin` and for

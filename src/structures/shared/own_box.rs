@@ -15,8 +15,11 @@ use bytemuck::{Pod, Zeroable};
 #[repr(C, align(32))]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct OwnBoxNode {
+    /// The node's own box, `[min xyz, max xyz]`, in scene units.
     pub bounds: [f32; 6],
+    /// Bit 31: leaf; bits 0–30: left child's slot or first index-list position.
     pub link: u32,
+    /// The layout's word: parent and axis (sparse) or canonical id (implicit).
     pub extra: u32,
 }
 
@@ -27,6 +30,7 @@ impl OwnBoxNode {
     /// Ray-plane tests of one box test: an own-box node holds 6 planes.
     pub const PLANES: u32 = 6;
 
+    /// Whether `link`'s bit 31 marks a leaf.
     #[inline(always)]
     pub fn is_leaf(&self) -> bool {
         self.link & LEAF != 0
@@ -61,9 +65,15 @@ pub fn test_children(
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Children {
     /// Both: the right one is nearer when `right_first`.
-    Both { right_first: bool },
+    Both {
+        /// The right child's entry distance is the smaller (ties go left).
+        right_first: bool,
+    },
     /// Only the right one (`right`) or only the left one.
-    One { right: bool },
+    One {
+        /// The one entered is the right child.
+        right: bool,
+    },
     /// Neither.
     None,
 }
@@ -93,7 +103,12 @@ impl Children {
 pub enum Step {
     /// An inner node whose children (the pair starting at slot `left`) were
     /// tested.
-    Inner { left: u32, children: Children },
+    Inner {
+        /// Slot of the left child; the right one is at `left + 1`.
+        left: u32,
+        /// Which children the ray enters, and in which order.
+        children: Children,
+    },
     /// A leaf whose triangles were tested: the traversal goes on elsewhere.
     Leaf,
     /// Any hit (`ANY = true`) found: the traversal ends.

@@ -27,6 +27,9 @@ const PARENT_MASK: u32 = (1 << 30) - 1;
 /// The root's parent field.
 const NO_PARENT: u32 = PARENT_MASK;
 
+/// The canonical BVH in [`OwnBoxNode`]s (32 bytes each) with parent links:
+/// see the module docs. `extra` holds the parent's slot (bits 0–29) and the
+/// split axis (bits 30–31).
 #[derive(Clone, Debug)]
 pub struct SparseBvh {
     pub(crate) nodes: Vec<OwnBoxNode>,
@@ -39,7 +42,8 @@ pub struct SparseBvh {
 }
 
 impl SparseBvh {
-    /// Lays out `bvh`. Refuses more than 2³⁰ − 1 nodes (the parent field).
+    /// Lays out `bvh`. [`Error::Limit`] for 2³⁰ − 1 nodes or more (the parent
+    /// field).
     pub fn from_bvh(bvh: &Bvh, triangles: Arc<[Triangle]>) -> Result<Self> {
         if bvh.nodes.len() >= PARENT_MASK as usize {
             return Err(Error::Limit(format!(
@@ -99,18 +103,23 @@ impl SparseBvh {
         }
     }
 
+    /// The root's box, in scene units ([`Aabb::EMPTY`] for a tree over no
+    /// triangles).
     pub fn bounds(&self) -> Aabb {
         Aabb::from_array(&self.nodes[0].bounds)
     }
 
+    /// Whether the tree holds no triangles.
     pub fn is_empty(&self) -> bool {
         self.index.is_empty()
     }
 
+    /// Nodes of the tree: the canonical BVH's count.
     pub fn node_count(&self) -> usize {
         self.nodes.len()
     }
 
+    /// Nodes with two children.
     pub fn inner_nodes(&self) -> usize {
         self.inner_nodes
     }
@@ -120,6 +129,7 @@ impl SparseBvh {
         self.nodes.len() * std::mem::size_of::<OwnBoxNode>()
     }
 
+    /// Bytes of the sign-terminated triangle index list: 4 per triangle reference.
     pub fn index_bytes(&self) -> usize {
         self.index.len() * 4
     }
@@ -148,9 +158,12 @@ pub fn sibling(n: u32) -> u32 {
 
 /// An algorithm over the sparse layout.
 pub trait SparseAlgorithm: Send + Sync + 'static {
+    /// The traversal's registry entry.
     const KIND: TraversalKind;
     /// Deepest tree the algorithm's integers address.
     const MAX_DEPTH: u32;
+    /// Traces `ray` over `layout`: the closest hit, or with `ANY` the first
+    /// hit found.
     fn trace<S: Stats, const ANY: bool>(
         layout: &SparseBvh,
         ray: &Ray,
@@ -212,12 +225,14 @@ impl<const K: usize> SparseAlgorithm for Laine<K> {
 
 /// A sparse-layout algorithm with its layout (shared between algorithms).
 pub struct OnSparse<A: SparseAlgorithm> {
+    /// The layout, shared with other algorithms over it.
     pub layout: Arc<SparseBvh>,
     _a: PhantomData<A>,
 }
 
 impl<A: SparseAlgorithm> OnSparse<A> {
-    /// Refuses a tree deeper than the algorithm addresses.
+    /// `A` over `layout`; [`Error::Limit`] for a tree deeper than
+    /// [`SparseAlgorithm::MAX_DEPTH`].
     pub fn new(layout: Arc<SparseBvh>) -> crate::error::Result<Self> {
         if layout.depth > A::MAX_DEPTH {
             return Err(crate::error::Error::Limit(format!(
