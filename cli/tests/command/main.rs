@@ -6,7 +6,7 @@
 
 mod support;
 
-mod field;
 mod commands;
+mod field;
 mod paper;
 mod report_browser;

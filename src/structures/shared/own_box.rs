@@ -192,13 +192,7 @@ impl<'a, const ANY: bool> Walk<'a, ANY> {
         }
         self.tally.planes += 2 * OwnBoxNode::PLANES;
         let left = children(n);
-        let [tl, tr] = test_children(
-            &self.br,
-            self.nodes,
-            left as usize,
-            self.tmin,
-            self.tmax,
-        );
+        let [tl, tr] = test_children(&self.br, self.nodes, left as usize, self.tmin, self.tmax);
         Step::Inner {
             left,
             children: Children::of(tl, tr),
