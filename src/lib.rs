@@ -52,6 +52,6 @@ pub mod prelude {
     pub use crate::geometry::{Aabb, Hit, Ray, Triangle};
     pub use crate::scene::{Camera, Mesh, Scene};
     pub use crate::stats::{Counters, NoStats, Stats, VisitLog};
-    pub use crate::structures::{tracer, Accel, BinaryBvh, BruteForce, Tracer};
+    pub use crate::structures::{tracer, Accel, BinaryBvh, BruteForce};
     pub use glam::Vec3;
 }

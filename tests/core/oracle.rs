@@ -112,10 +112,12 @@ fn paper_analogue_scenes_agree_with_oracle() {
 
 #[test]
 fn shared_meshes_agree_with_oracle() {
+    // The brute-force answers dominate the test's time (rays × triangles):
+    // 30,000 rays on the 65,000- and 70,000-triangle meshes.
     for (name, rays) in [
         ("teapot.obj", 100_000),
-        ("bunny.obj", 100_000),
-        ("battlefield.obj", 100_000),
+        ("bunny.obj", 30_000),
+        ("battlefield.obj", 30_000),
     ] {
         match common::shared_scene(name) {
             Some(p) => check_scene(&Scene::load(p).unwrap(), rays),

@@ -22,7 +22,8 @@ impl WithAccel for Answers<'_> {
     }
 }
 
-const RAYS: usize = 100_000;
+/// Rays per mesh, traced by every structure (up to 871,000 triangles).
+const RAYS: usize = 30_000;
 
 #[test]
 fn every_structure_agrees_on_every_shared_mesh() {
