@@ -1,6 +1,7 @@
 //! Work counters, passed to every traversal as a generic sink so that the
 //! [`NoStats`] sink compiles to nothing.
 
+use crate::geometry::Hit;
 use serde::Serialize;
 use std::ops::AddAssign;
 
@@ -18,6 +19,13 @@ pub trait Stats {
     fn visit(&mut self, _id: u32) {}
     /// The work of one ray.
     fn add(&mut self, tally: Tally);
+    /// Whether the sink wants every hit: the traversal then reports each hit
+    /// within the ray's interval to [`Stats::hit`], never shortens the ray
+    /// and never stops early, and its own answer is `None`. This is the
+    /// all-hits query ([`crate::structures::Accel::all_hits`]).
+    const HITS: bool = false;
+    /// A hit, when [`Stats::HITS`] is set.
+    fn hit(&mut self, _hit: Hit) {}
 }
 
 /// One ray's work, kept in locals by a traversal.
@@ -152,5 +160,77 @@ mod tests {
         });
         assert_eq!(l.visits, vec![7, 3]);
         assert_eq!(l.counters.nodes, 2);
+    }
+}
+
+/// Collects every hit along a ray (the all-hits query), passing the work on
+/// to `inner`.
+#[derive(Clone, Debug, Default)]
+pub struct HitList<S: Stats = NoStats> {
+    /// The hits, in the order the traversal found them.
+    pub hits: Vec<Hit>,
+    /// The sink that receives the work.
+    pub inner: S,
+}
+
+impl<S: Stats> Stats for HitList<S> {
+    const LOGS: bool = S::LOGS;
+    const HITS: bool = true;
+    #[inline(always)]
+    fn visit(&mut self, id: u32) {
+        self.inner.visit(id)
+    }
+    #[inline(always)]
+    fn add(&mut self, tally: Tally) {
+        self.inner.add(tally)
+    }
+    #[inline(always)]
+    fn hit(&mut self, hit: Hit) {
+        self.hits.push(hit)
+    }
+}
+
+/// Counts the hits along a ray (the all-hits query without the hits),
+/// passing the work on to `inner`.
+#[derive(Clone, Debug, Default)]
+pub struct HitCount<S: Stats = NoStats> {
+    /// Hits found.
+    pub count: u32,
+    /// The sink that receives the work.
+    pub inner: S,
+}
+
+impl<S: Stats> Stats for HitCount<S> {
+    const LOGS: bool = S::LOGS;
+    const HITS: bool = true;
+    #[inline(always)]
+    fn visit(&mut self, id: u32) {
+        self.inner.visit(id)
+    }
+    #[inline(always)]
+    fn add(&mut self, tally: Tally) {
+        self.inner.add(tally)
+    }
+    #[inline(always)]
+    fn hit(&mut self, _hit: Hit) {
+        self.count += 1
+    }
+}
+
+/// A borrowed sink counts into what it borrows.
+impl<S: Stats> Stats for &mut S {
+    const LOGS: bool = S::LOGS;
+    const HITS: bool = S::HITS;
+    #[inline(always)]
+    fn visit(&mut self, id: u32) {
+        (**self).visit(id)
+    }
+    #[inline(always)]
+    fn add(&mut self, tally: Tally) {
+        (**self).add(tally)
+    }
+    #[inline(always)]
+    fn hit(&mut self, hit: Hit) {
+        (**self).hit(hit)
     }
 }

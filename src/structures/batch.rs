@@ -9,7 +9,8 @@ use crate::bvh::Bvh;
 use crate::error::{Error, Result};
 use crate::geometry::Triangle;
 use crate::geometry::{Hit, Ray};
-use crate::stats::{Counters, NoStats};
+use crate::stats::{Counters, HitCount, HitList, NoStats};
+use crate::structures::sort_hits;
 use rayon::prelude::*;
 use std::sync::Arc;
 
@@ -55,6 +56,42 @@ pub trait Tracer: Send + Sync {
         occluded: &mut [bool],
         counters: Option<&mut Counters>,
     ) -> Result<()>;
+
+    /// The number of hits along each ray within its `[tmin, tmax]` (every
+    /// triangle it meets), into `counts`.
+    ///
+    /// # Errors
+    /// [`Error::Invalid`] when the slices differ in length.
+    fn count_hits(
+        &self,
+        rays: &[Ray],
+        counts: &mut [u32],
+        counters: Option<&mut Counters>,
+    ) -> Result<()>;
+
+    /// Every hit along every ray within its `[tmin, tmax]`: the hits of ray
+    /// `i` are `hits[offsets[i]..offsets[i + 1]]`, nearest first, equal
+    /// distances by the smaller triangle index. `offsets` has `rays.len() + 1`
+    /// entries, the first 0.
+    fn list_hits(&self, rays: &[Ray], counters: Option<&mut Counters>) -> HitLists;
+}
+
+/// Every hit of a batch of rays, in one flat list with per-ray offsets
+/// ([`Tracer::list_hits`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct HitLists {
+    /// The hits of every ray, ray after ray.
+    pub hits: Vec<Hit>,
+    /// `rays + 1` offsets into `hits`: ray `i`'s hits are
+    /// `hits[offsets[i]..offsets[i + 1]]`.
+    pub offsets: Vec<usize>,
+}
+
+impl HitLists {
+    /// The hits of ray `i`.
+    pub fn of(&self, i: usize) -> &[Hit] {
+        &self.hits[self.offsets[i]..self.offsets[i + 1]]
+    }
 }
 
 fn same_length(rays: usize, out: usize) -> Result<()> {
@@ -144,6 +181,59 @@ impl<A: Accel> Tracer for A {
             |a, r, c| a.any_hit(r, c).is_some(),
             |a, r| a.any_hit(r, &mut NoStats).is_some(),
         )
+    }
+
+    fn count_hits(
+        &self,
+        rays: &[Ray],
+        counts: &mut [u32],
+        counters: Option<&mut Counters>,
+    ) -> Result<()> {
+        batch(
+            self,
+            rays,
+            counts,
+            counters,
+            |a, r, c| {
+                let mut sink = HitCount {
+                    count: 0,
+                    inner: &mut *c,
+                };
+                a.all_hits(r, &mut sink);
+                sink.count
+            },
+            |a, r| a.count_hits(r),
+        )
+    }
+
+    fn list_hits(&self, rays: &[Ray], counters: Option<&mut Counters>) -> HitLists {
+        let mut lists: Vec<Vec<Hit>> = vec![Vec::new(); rays.len()];
+        batch(
+            self,
+            rays,
+            &mut lists,
+            counters,
+            |a, r, c| {
+                let mut sink = HitList {
+                    hits: Vec::new(),
+                    inner: &mut *c,
+                };
+                a.all_hits(r, &mut sink);
+                sort_hits(&mut sink.hits);
+                sink.hits
+            },
+            |a, r| a.list_hits(r),
+        )
+        .expect("one list per ray");
+        let mut offsets = Vec::with_capacity(rays.len() + 1);
+        offsets.push(0);
+        for l in &lists {
+            offsets.push(offsets.last().unwrap() + l.len());
+        }
+        HitLists {
+            hits: lists.into_iter().flatten().collect(),
+            offsets,
+        }
     }
 }
 

@@ -27,7 +27,7 @@ pub mod registry;
 pub mod shared;
 pub mod sparse;
 
-pub use batch::{tracer, Tracer};
+pub use batch::{tracer, HitLists, Tracer};
 pub use bih::Bih;
 pub use brute::BruteForce;
 pub use bvh::BinaryBvh;
@@ -44,7 +44,7 @@ pub use shared::{stack_capacity, MAX_STACK_DEPTH};
 pub use sparse::SparseBvh;
 
 use crate::geometry::{Hit, Ray};
-use crate::stats::Stats;
+use crate::stats::{HitCount, HitList, NoStats, Stats};
 
 /// What every structure answers. The statistics sink is a generic parameter,
 /// so that tracing with [`crate::stats::NoStats`] compiles the counting away.
@@ -63,4 +63,44 @@ pub trait Accel: Send + Sync {
     /// Some hit within `[ray.tmin, ray.tmax]`; the first one found ends the
     /// search.
     fn any_hit<S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit>;
+
+    /// Every hit within `[ray.tmin, ray.tmax]`, each handed to `sink`'s
+    /// [`Stats::hit`] in the order the traversal finds it, which is any
+    /// order. `sink` must want hits ([`Stats::HITS`], as
+    /// [`crate::stats::HitList`] and [`crate::stats::HitCount`] do): the
+    /// closest-hit traversal then neither shortens the ray nor stops.
+    ///
+    /// # Panics
+    /// If `S::HITS` is not set.
+    fn all_hits<S: Stats>(&self, ray: &Ray, sink: &mut S) {
+        assert!(
+            S::HITS,
+            "all_hits needs a sink that wants hits (Stats::HITS)"
+        );
+        let none = self.closest_hit(ray, sink);
+        debug_assert!(none.is_none());
+    }
+
+    /// The number of hits within `[ray.tmin, ray.tmax]` (every triangle the
+    /// ray meets, counted once).
+    fn count_hits(&self, ray: &Ray) -> u32 {
+        let mut sink = HitCount::<NoStats>::default();
+        self.all_hits(ray, &mut sink);
+        sink.count
+    }
+
+    /// Every hit within `[ray.tmin, ray.tmax]`, nearest first, equal
+    /// distances by the smaller triangle index.
+    fn list_hits(&self, ray: &Ray) -> Vec<Hit> {
+        let mut sink = HitList::<NoStats>::default();
+        self.all_hits(ray, &mut sink);
+        sort_hits(&mut sink.hits);
+        sink.hits
+    }
+}
+
+/// Sorts hits nearest first, equal distances by the smaller triangle index:
+/// the order [`Accel::list_hits`] returns.
+pub fn sort_hits(hits: &mut [Hit]) {
+    hits.sort_unstable_by(|a, b| a.t.total_cmp(&b.t).then(a.prim.cmp(&b.prim)));
 }

@@ -5,6 +5,7 @@
 
 mod common;
 
+mod all_hits;
 mod bad_input;
 mod cbvh;
 mod determinism;

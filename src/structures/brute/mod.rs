@@ -46,7 +46,9 @@ impl Accel for BruteForce {
         });
         for &p in &self.live {
             if let Some(h) = self.triangles[p as usize].hit(ray, ray.tmin, tmax, p) {
-                if h.beats(&best) {
+                if S::HITS {
+                    stats.hit(h);
+                } else if h.beats(&best) {
                     tmax = h.t;
                     best = Some(h);
                 }

@@ -44,7 +44,7 @@ fn trace_n<S: Stats, const ANY: bool, const N: usize>(
         }
         if node & LAST != 0 {
             let first = words[(node & !LAST) as usize];
-            if intersect_leaf::<ANY>(
+            if intersect_leaf::<ANY, S>(
                 &bvh.index,
                 &bvh.triangles,
                 first,
@@ -52,6 +52,7 @@ fn trace_n<S: Stats, const ANY: bool, const N: usize>(
                 &mut tmax,
                 &mut best,
                 &mut tally,
+                stats,
             ) {
                 break;
             }

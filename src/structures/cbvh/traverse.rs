@@ -72,7 +72,7 @@ fn trace_n<S: Stats, const ANY: bool, const N: usize>(
             stats.visit(c.canonical_id(node));
         }
         if node & LEAF != 0 {
-            if intersect_leaf::<ANY>(
+            if intersect_leaf::<ANY, S>(
                 &c.index,
                 &c.triangles,
                 node & INDEX_MASK,
@@ -80,6 +80,7 @@ fn trace_n<S: Stats, const ANY: bool, const N: usize>(
                 &mut tmax,
                 &mut best,
                 &mut tally,
+                stats,
             ) {
                 break;
             }

@@ -88,7 +88,7 @@ fn trace_n<S: Stats, const ANY: bool, const N: usize>(
                 node += offset as usize;
                 continue;
             }
-            if intersect_leaf::<ANY>(
+            if intersect_leaf::<ANY, S>(
                 &dst.index,
                 &dst.triangles,
                 offset,
@@ -96,6 +96,7 @@ fn trace_n<S: Stats, const ANY: bool, const N: usize>(
                 &mut best_t,
                 &mut best,
                 &mut tally,
+                stats,
             ) {
                 break;
             }

@@ -73,7 +73,7 @@ fn trace_n<S: Stats, const ANY: bool, const N: usize>(
                 }
             }
             _ => {
-                if intersect_leaf::<ANY>(
+                if intersect_leaf::<ANY, S>(
                     &h.index,
                     &h.triangles,
                     w & LEAF_MASK,
@@ -81,6 +81,7 @@ fn trace_n<S: Stats, const ANY: bool, const N: usize>(
                     &mut best_t,
                     &mut best,
                     &mut tally,
+                    stats,
                 ) {
                     break;
                 }

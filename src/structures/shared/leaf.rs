@@ -45,8 +45,11 @@ pub fn cull_distance(t: f32) -> f32 {
 /// `[ray.tmin, *tmax]`. For closest hit (`ANY = false`) the nearest hit is
 /// kept in `best` and `tmax` shrinks to its [`cull_distance`]; for any hit
 /// the first hit is stored and `true` returned, which ends the traversal.
+/// A sink that wants every hit ([`Stats::HITS`]) gets each one, and
+/// neither `tmax` nor `best` changes.
 #[inline(always)]
-pub fn intersect_leaf<const ANY: bool>(
+#[allow(clippy::too_many_arguments)]
+pub fn intersect_leaf<const ANY: bool, S: Stats>(
     index: &[u32],
     triangles: &[Triangle],
     first: u32,
@@ -54,6 +57,7 @@ pub fn intersect_leaf<const ANY: bool>(
     tmax: &mut f32,
     best: &mut Option<Hit>,
     tally: &mut Tally,
+    stats: &mut S,
 ) -> bool {
     let mut i = first as usize;
     loop {
@@ -61,11 +65,12 @@ pub fn intersect_leaf<const ANY: bool>(
         let prim = entry & !LAST;
         tally.triangles += 1;
         if let Some(h) = triangles[prim as usize].hit(ray, ray.tmin, *tmax, prim) {
-            if ANY {
+            if S::HITS {
+                stats.hit(h);
+            } else if ANY {
                 *best = Some(h);
                 return true;
-            }
-            if h.beats(best) {
+            } else if h.beats(best) {
                 *tmax = cull_distance(h.t);
                 *best = Some(h);
             }

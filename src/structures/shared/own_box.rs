@@ -177,7 +177,7 @@ impl<'a, const ANY: bool> Walk<'a, ANY> {
             stats.visit(id());
         }
         if n.is_leaf() {
-            if intersect_leaf::<ANY>(
+            if intersect_leaf::<ANY, S>(
                 self.index,
                 self.triangles,
                 n.target(),
@@ -185,6 +185,7 @@ impl<'a, const ANY: bool> Walk<'a, ANY> {
                 &mut self.tmax,
                 &mut self.best,
                 &mut self.tally,
+                stats,
             ) {
                 return Step::Done;
             }

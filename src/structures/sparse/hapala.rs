@@ -47,7 +47,7 @@ pub fn trace<S: Stats, const ANY: bool>(sp: &SparseBvh, ray: &Ray, stats: &mut S
         stats.visit(sp.ids[0]);
     }
     if nodes[0].is_leaf() {
-        intersect_leaf::<ANY>(
+        intersect_leaf::<ANY, S>(
             &sp.index,
             &sp.triangles,
             nodes[0].target(),
@@ -55,6 +55,7 @@ pub fn trace<S: Stats, const ANY: bool>(sp: &SparseBvh, ray: &Ray, stats: &mut S
             &mut tmax,
             &mut best,
             &mut tally,
+            stats,
         );
     } else {
         let mut cur = near_child(0);
@@ -92,7 +93,7 @@ pub fn trace<S: Stats, const ANY: bool>(sp: &SparseBvh, ray: &Ray, stats: &mut S
                 if S::LOGS {
                     stats.visit(sp.ids[cur as usize]);
                 }
-                if intersect_leaf::<ANY>(
+                if intersect_leaf::<ANY, S>(
                     &sp.index,
                     &sp.triangles,
                     n.target(),
@@ -100,6 +101,7 @@ pub fn trace<S: Stats, const ANY: bool>(sp: &SparseBvh, ray: &Ray, stats: &mut S
                     &mut tmax,
                     &mut best,
                     &mut tally,
+                    stats,
                 ) {
                     break;
                 }
