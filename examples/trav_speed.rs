@@ -54,14 +54,21 @@ fn main() {
         ("laine-2", TraversalKind::Laine2, true),
         ("laine-8", TraversalKind::Laine8, true),
         ("hapala", TraversalKind::Hapala, true),
+        ("bvh4", TraversalKind::Stack, false),
+        ("bvh8", TraversalKind::Stack, false),
     ] {
         if only.as_deref().is_some_and(|o| o != name) {
             continue;
         }
+        let structure = match name {
+            "bvh4" => StructureKind::Bvh4,
+            "bvh8" => StructureKind::Bvh8,
+            _ => StructureKind::Bvh,
+        };
         let built = if s {
             Built::sparse(t, sp.clone()).unwrap()
         } else {
-            Built::new(StructureKind::Bvh, t, &bvh, scene.triangles.clone())
+            Built::new(structure, t, &bvh, scene.triangles.clone())
                 .unwrap()
                 .0
         };

@@ -273,6 +273,8 @@ impl Built {
             Built::Bih(a) => Box::new(a),
             Built::Htree(a) => Box::new(a),
             Built::Cbvh(a) => Box::new(a),
+            Built::Bvh4(a) => Box::new(a),
+            Built::Bvh8(a) => Box::new(a),
             Built::Brute(a) => Box::new(a),
         }
     }

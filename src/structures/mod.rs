@@ -13,6 +13,7 @@
 //! | `bih/` | bounding interval hierarchy (dual-split encoding) | interval traversal | Wächter and Keller 2006 |
 //! | `htree/` | H-tree | interval traversal | Havran et al. 2006 (Lin et al.'s baseline) |
 //! | `cbvh/` | Compact BVH, shared planes, 32-byte nodes | stack | Fabianowski and Dingliana 2009 (Lin et al.'s baseline) |
+//! | `wide/` | `bvh4`, `bvh8`: 4- and 8-wide nodes collapsed by SAH, child boxes side by side | nearest-first stack with distances | Ylitie et al. 2017, §3.1 (collapse) |
 //! | `brute/` | every triangle: the oracle | — | — |
 
 mod batch;
@@ -26,6 +27,7 @@ pub mod implicit;
 pub mod registry;
 pub mod shared;
 pub mod sparse;
+pub mod wide;
 
 pub use batch::{tracer, HitLists, Tracer};
 pub use bih::Bih;
@@ -42,6 +44,7 @@ pub use registry::{
 pub use shared::leaf::{leaf_triangles, LAST};
 pub use shared::{stack_capacity, MAX_STACK_DEPTH};
 pub use sparse::SparseBvh;
+pub use wide::{Bvh4, Bvh8, WideBvh};
 
 use crate::geometry::{Hit, Ray};
 use crate::stats::{HitCount, HitList, NoStats, Stats};

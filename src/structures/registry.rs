@@ -8,7 +8,8 @@ use super::implicit::{ImplicitA, ImplicitB, OnImplicit, DEFAULT_RESERVATION_LIMI
 use super::shared::stack_capacity;
 use super::sparse::{Hapala, Laine, OnSparse, Sparse, StackOnSparse};
 use super::{
-    Accel, Bih, BinaryBvh, BruteForce, CompactBvh, DualSplitTree, HTree, ImplicitBvh, SparseBvh,
+    Accel, Bih, BinaryBvh, BruteForce, Bvh4, Bvh8, CompactBvh, DualSplitTree, HTree, ImplicitBvh,
+    SparseBvh,
 };
 use crate::bvh::Bvh;
 use crate::error::{Error, Result};
@@ -35,6 +36,10 @@ pub enum StructureKind {
     Htree,
     /// Compact BVH (shared planes, 32-byte nodes).
     Cbvh,
+    /// 4-wide BVH collapsed from the binary one by SAH.
+    Bvh4,
+    /// 8-wide BVH collapsed from the binary one by SAH.
+    Bvh8,
     /// Brute force: every triangle (the oracle).
     Brute,
 }
@@ -71,6 +76,16 @@ impl Named for StructureKind {
             StructureKind::Cbvh,
             "cbvh",
             "Compact BVH: shared planes, 32-byte nodes",
+        ),
+        (
+            StructureKind::Bvh4,
+            "bvh4",
+            "4-wide BVH: SAH-optimal collapse, child boxes side by side, 128-byte nodes",
+        ),
+        (
+            StructureKind::Bvh8,
+            "bvh8",
+            "8-wide BVH: SAH-optimal collapse, child boxes side by side, 256-byte nodes",
         ),
         (
             StructureKind::Brute,
@@ -179,9 +194,11 @@ impl StructureKind {
 
     /// Every structure, in the registry's order.
     pub fn all() -> &'static [StructureKind] {
-        const ALL: [StructureKind; 7] = {
+        const ALL: [StructureKind; 9] = {
             let t = <StructureKind as Named>::TABLE;
-            [t[0].0, t[1].0, t[2].0, t[3].0, t[4].0, t[5].0, t[6].0]
+            [
+                t[0].0, t[1].0, t[2].0, t[3].0, t[4].0, t[5].0, t[6].0, t[7].0, t[8].0,
+            ]
         };
         &ALL
     }
@@ -267,6 +284,10 @@ pub enum Built {
     Htree(HTree),
     /// `cbvh`.
     Cbvh(CompactBvh),
+    /// `bvh4`.
+    Bvh4(Bvh4),
+    /// `bvh8`.
+    Bvh8(Bvh8),
     /// `brute`, the oracle.
     Brute(BruteForce),
 }
@@ -427,6 +448,20 @@ impl Built {
                 i.leaves = c.leaves();
                 (Built::Cbvh(c), i)
             }
+            (StructureKind::Bvh4, _) => {
+                let w = Bvh4::from_bvh(bvh, triangles)?;
+                let mut i = info("wide-4", w.node_bytes(), w.index_bytes());
+                i.inner_nodes = w.inner_nodes();
+                i.leaves = w.leaves();
+                (Built::Bvh4(w), i)
+            }
+            (StructureKind::Bvh8, _) => {
+                let w = Bvh8::from_bvh(bvh, triangles)?;
+                let mut i = info("wide-8", w.node_bytes(), w.index_bytes());
+                i.inner_nodes = w.inner_nodes();
+                i.leaves = w.leaves();
+                (Built::Bvh8(w), i)
+            }
             (StructureKind::Brute, _) => {
                 let b = BruteForce::new(triangles);
                 let mut i = info("triangles", 0, b.bytes());
@@ -480,6 +515,8 @@ impl Built {
             Built::Bih(a) => w.run(a),
             Built::Htree(a) => w.run(a),
             Built::Cbvh(a) => w.run(a),
+            Built::Bvh4(a) => w.run(a),
+            Built::Bvh8(a) => w.run(a),
             Built::Brute(a) => w.run(a),
         }
     }
@@ -521,7 +558,17 @@ mod tests {
         let s: Vec<_> = StructureKind::all().iter().map(|s| s.name()).collect();
         assert_eq!(
             s,
-            ["bvh", "dst", "dst-similar", "bih", "htree", "cbvh", "brute"]
+            [
+                "bvh",
+                "dst",
+                "dst-similar",
+                "bih",
+                "htree",
+                "cbvh",
+                "bvh4",
+                "bvh8",
+                "brute"
+            ]
         );
         let t: Vec<_> = TraversalKind::all().iter().map(|t| t.name()).collect();
         assert_eq!(
@@ -562,10 +609,10 @@ mod tests {
                 format!("\"{}\"", t.name())
             );
         }
-        let e = "bvh4".parse::<StructureKind>().unwrap_err().to_string();
+        let e = "bvh16".parse::<StructureKind>().unwrap_err().to_string();
         assert_eq!(
             e,
-            "unknown structure 'bvh4' (known: bvh, dst, dst-similar, bih, htree, cbvh, brute)"
+            "unknown structure 'bvh16' (known: bvh, dst, dst-similar, bih, htree, cbvh, bvh4, bvh8, brute)"
         );
     }
 }

@@ -1,0 +1,306 @@
+//! Wide BVHs: 4- and 8-wide nodes (`bvh4`, `bvh8`) collapsed from the
+//! canonical binary [`Bvh`] by SAH, their child boxes stored per plane side
+//! by side so that one pass of vector instructions tests every child.
+//!
+//! - Collapse (`collapse.rs`): which binary descendants become a wide node's
+//!   children is chosen by dynamic programming over the binary tree to
+//!   minimise the SAH cost of the wide tree (the optimal collapse of Ylitie,
+//!   Karras and Laine 2017, §3.1, with their costs: 1 per node, 0.3 per
+//!   triangle), not by a fixed two-level merge. The binary tree's leaves stay
+//!   leaves.
+//! - Node ([`WideNode`]): the children's boxes as six rows of `W` floats
+//!   (`min x`, `min y`, `min z`, `max x`, `max y`, `max z`; empty lanes hold
+//!   an inverted box that no ray enters) and `W` child references: a wide
+//!   node's index, or with bit 31 set a leaf's first position in the
+//!   sign-terminated triangle index list, or `u32::MAX` for an empty lane.
+//!   4 + 6·4·4 = 112 bytes padded to 128 for `bvh4`; 256 bytes for `bvh8`.
+//! - Traversal (`traverse.rs`): every child's box in one pass, the hit
+//!   children visited nearest first (sorted by entry distance), a stack of
+//!   node references with their entry distances, so that popped entries
+//!   farther than the closest hit are skipped.
+
+mod collapse;
+mod traverse;
+
+use super::shared::leaf::LAST;
+use super::shared::MAX_STACK_DEPTH;
+use super::Accel;
+use crate::bvh::{Bvh, NodeKind};
+use crate::error::{Error, Result};
+use crate::geometry::{Aabb, Hit, Ray, Triangle};
+use crate::stats::Stats;
+use std::sync::Arc;
+
+/// Reference bit: the child is a leaf (the rest: its index-list position).
+const LEAF: u32 = 1 << 31;
+/// The reference of an empty lane.
+const EMPTY: u32 = u32::MAX;
+
+/// A node of `W` children (`W` = 4 or 8): `planes[r][k]` is plane row `r`
+/// (`min x, min y, min z, max x, max y, max z`) of child `k`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C, align(64))]
+pub struct WideNode<const W: usize> {
+    /// Child boxes, one row per plane, one lane per child.
+    pub planes: [[f32; W]; 6],
+    /// Child references: a node index, a leaf (bit 31 set: index-list
+    /// position), or `u32::MAX` for an empty lane.
+    pub children: [u32; W],
+}
+
+impl<const W: usize> WideNode<W> {
+    /// A node with every lane empty: boxes inverted (`+inf` minima, `-inf`
+    /// maxima) so that no ray enters them.
+    fn empty() -> Self {
+        let mut planes = [[f32::INFINITY; W]; 6];
+        for row in &mut planes[3..] {
+            *row = [f32::NEG_INFINITY; W];
+        }
+        WideNode {
+            planes,
+            children: [EMPTY; W],
+        }
+    }
+
+    /// Children in use.
+    pub fn child_count(&self) -> usize {
+        self.children.iter().filter(|&&c| c != EMPTY).count()
+    }
+
+    /// The box of child `k`.
+    pub fn child_bounds(&self, k: usize) -> Aabb {
+        Aabb::from_array(&std::array::from_fn(|r| self.planes[r][k]))
+    }
+}
+
+/// A `W`-wide BVH (`W` = 4: `bvh4`, 8: `bvh8`) over a mesh's triangles.
+#[derive(Clone, Debug)]
+pub struct WideBvh<const W: usize> {
+    nodes: Vec<WideNode<W>>,
+    index: Vec<u32>,
+    triangles: Arc<[Triangle]>,
+    root_bounds: Aabb,
+    /// The root's reference: node 0, or a leaf for a one-leaf tree.
+    root: u32,
+    /// Canonical BVH id of each wide node, and of each leaf by its
+    /// index-list position (visit logs only).
+    node_ids: Vec<u32>,
+    leaf_ids: Vec<(u32, u32)>,
+    /// Wide levels below the root.
+    depth: u32,
+    leaves: usize,
+    sah_cost: f64,
+}
+
+/// A 4-wide BVH.
+pub type Bvh4 = WideBvh<4>;
+/// An 8-wide BVH.
+pub type Bvh8 = WideBvh<8>;
+
+impl<const W: usize> WideBvh<W> {
+    /// Collapses `bvh` (built over `triangles`) into a `W`-wide tree by SAH.
+    ///
+    /// # Errors
+    /// [`Error::Limit`] for a tree deeper than the traversal stack holds
+    /// ([`MAX_STACK_DEPTH`] levels) or with 2³¹ or more nodes.
+    pub fn from_bvh(bvh: &Bvh, triangles: Arc<[Triangle]>) -> Result<Self> {
+        const { assert!(W == 4 || W == 8, "wide BVHs are 4 or 8 wide") };
+        if bvh.stats.depth as usize >= MAX_STACK_DEPTH {
+            return Err(Error::Limit(format!(
+                "BVH depth {} exceeds the {W}-wide BVH's limit of {} levels; use the hybrid builder",
+                bvh.stats.depth,
+                MAX_STACK_DEPTH - 1
+            )));
+        }
+        if bvh.nodes.len() >= LEAF as usize {
+            return Err(Error::Limit(format!(
+                "{} BVH nodes exceed the {W}-wide BVH's 31-bit references",
+                bvh.nodes.len()
+            )));
+        }
+        let plan = collapse::plan::<W>(bvh);
+        let mut w = WideBvh {
+            nodes: Vec::new(),
+            index: Vec::with_capacity(bvh.prims.len()),
+            triangles,
+            root_bounds: bvh.bounds(),
+            root: 0,
+            node_ids: Vec::new(),
+            leaf_ids: Vec::new(),
+            depth: 0,
+            leaves: 0,
+            sah_cost: plan.cost,
+        };
+        w.root = w.place(bvh, &plan, crate::bvh::ROOT, 0);
+        Ok(w)
+    }
+
+    /// Places binary node `id` (a leaf, or an inner node that becomes a wide
+    /// node) at wide depth `depth`; returns its reference.
+    fn place(&mut self, bvh: &Bvh, plan: &collapse::Plan, id: u32, depth: u32) -> u32 {
+        let node = &bvh.nodes[id as usize];
+        self.depth = self.depth.max(depth);
+        if let NodeKind::Leaf { .. } = node.kind {
+            let at = self.index.len() as u32;
+            self.index.extend_from_slice(bvh.leaf_prims(node));
+            if let Some(last) = self.index.last_mut() {
+                *last |= LAST;
+            }
+            self.leaf_ids.push((at, id));
+            self.leaves += 1;
+            return at | LEAF;
+        }
+        let at = self.nodes.len();
+        self.nodes.push(WideNode::empty());
+        self.node_ids.push(id);
+        let children = plan.children(bvh, id);
+        debug_assert!(children.len() <= W);
+        for (k, &c) in children.iter().enumerate() {
+            let r = self.place(bvh, plan, c, depth + 1);
+            let b = bvh.nodes[c as usize].bounds.to_array();
+            let n = &mut self.nodes[at];
+            for (row, v) in b.into_iter().enumerate() {
+                n.planes[row][k] = v;
+            }
+            n.children[k] = r;
+        }
+        at as u32
+    }
+
+    /// The wide nodes; node 0 is the root unless the tree is one leaf.
+    pub fn nodes(&self) -> &[WideNode<W>] {
+        &self.nodes
+    }
+
+    /// The sign-terminated triangle index list ([`LAST`]).
+    pub fn index_list(&self) -> &[u32] {
+        &self.index
+    }
+
+    /// Bytes of the nodes.
+    pub fn node_bytes(&self) -> usize {
+        std::mem::size_of_val(&self.nodes[..])
+    }
+
+    /// Bytes of the triangle index list.
+    pub fn index_bytes(&self) -> usize {
+        self.index.len() * 4
+    }
+
+    /// Wide (inner) nodes.
+    pub fn inner_nodes(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// Leaves (the binary BVH's).
+    pub fn leaves(&self) -> usize {
+        self.leaves
+    }
+
+    /// Wide levels below the root.
+    pub fn depth(&self) -> u32 {
+        self.depth
+    }
+
+    /// SAH cost of the wide tree (node cost 1, triangle cost 0.3, areas
+    /// relative to the root's), as the collapse minimised it.
+    pub fn sah_cost(&self) -> f64 {
+        self.sah_cost
+    }
+
+    /// Whether the tree holds no triangle.
+    pub fn is_empty(&self) -> bool {
+        self.index.is_empty()
+    }
+
+    /// The canonical BVH id of reference `r` (visit logs).
+    fn canonical_id(&self, r: u32) -> u32 {
+        if r & LEAF == 0 {
+            return self.node_ids[r as usize];
+        }
+        let at = r & !LEAF;
+        let k = self
+            .leaf_ids
+            .binary_search_by_key(&at, |&(p, _)| p)
+            .expect("a placed leaf");
+        self.leaf_ids[k].1
+    }
+}
+
+impl<const W: usize> Accel for WideBvh<W> {
+    fn name(&self) -> &'static str {
+        if W == 4 {
+            "bvh4"
+        } else {
+            "bvh8"
+        }
+    }
+
+    fn bytes(&self) -> usize {
+        self.node_bytes() + self.index_bytes()
+    }
+
+    fn closest_hit<S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
+        traverse::trace::<W, S, false>(self, ray, stats)
+    }
+
+    fn any_hit<S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
+        traverse::trace::<W, S, true>(self, ray, stats)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bvh::BuildOptions;
+    use crate::scene::Scene;
+
+    fn check<const W: usize>(spec: &str) {
+        let scene = Scene::builtin(spec).unwrap();
+        let bvh = Bvh::build(&scene.triangles, &BuildOptions::sah());
+        let w = WideBvh::<W>::from_bvh(&bvh, scene.triangles.clone()).unwrap();
+        // Every binary leaf is a leaf, every triangle listed once.
+        assert_eq!(w.leaves(), bvh.stats.leaves);
+        let mut listed: Vec<u32> = w.index.iter().map(|e| e & !LAST).collect();
+        listed.sort_unstable();
+        let mut want = bvh.prims.clone();
+        want.sort_unstable();
+        assert_eq!(listed, want);
+        // Each node's children lie inside the box its parent gave it, and
+        // every node but a lone root has 2..=W children.
+        let mut todo = vec![(0u32, bvh.bounds())];
+        let mut seen = 0;
+        while let Some((r, b)) = todo.pop() {
+            let n = &w.nodes[r as usize];
+            seen += 1;
+            let count = n.child_count();
+            assert!((2..=W).contains(&count), "{count} children");
+            for k in 0..count {
+                let c = n.child_bounds(k);
+                assert!(b.contains(&c), "child box outside its parent");
+                if n.children[k] & LEAF == 0 {
+                    todo.push((n.children[k], c));
+                }
+            }
+            assert!(n.children[count..].iter().all(|&c| c == EMPTY));
+        }
+        assert_eq!(seen, w.nodes.len());
+        // Fewer nodes than the binary tree's inner nodes, and no costlier.
+        assert!(w.inner_nodes() < bvh.stats.inner_nodes);
+        assert!(w.sah_cost() <= collapse::binary_cost(&bvh) + 1e-9);
+    }
+
+    #[test]
+    fn bvh4_and_bvh8_hold_every_leaf_inside_their_parents() {
+        for spec in ["chess:3000", "hairball:3000", "atrium:3000"] {
+            check::<4>(spec);
+            check::<8>(spec);
+        }
+    }
+
+    #[test]
+    fn node_sizes() {
+        assert_eq!(std::mem::size_of::<WideNode<4>>(), 128);
+        assert_eq!(std::mem::size_of::<WideNode<8>>(), 256);
+    }
+}
