@@ -107,9 +107,9 @@ fn trace_n<const W: usize, S: Stats, const ANY: bool, const N: usize>(
             let d = test_children(&br, &near, &far, n, tmin, tmax);
             let mut hit = [(0f32, 0u32); W];
             let mut m = 0;
-            for k in 0..W {
-                if d[k] != f32::INFINITY {
-                    hit[m] = (d[k], n.children[k]);
+            for (&t, &child) in d.iter().zip(&n.children) {
+                if t != f32::INFINITY {
+                    hit[m] = (t, child);
                     m += 1;
                 }
             }
