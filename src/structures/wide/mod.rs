@@ -11,8 +11,11 @@
 //! - Node ([`WideNode`]): the children's boxes as six rows of `W` floats
 //!   (`min x`, `min y`, `min z`, `max x`, `max y`, `max z`; empty lanes hold
 //!   an inverted box that no ray enters) and `W` child references: a wide
-//!   node's index, or with bit 31 set a leaf's first position in the
-//!   sign-terminated triangle index list, or `u32::MAX` for an empty lane.
+//!   node's index, or with bit 31 set a leaf's first triangle block, or
+//!   `u32::MAX` for an empty lane.
+//! - Leaves: the leaf's triangles copied side by side in blocks of four
+//!   ([`super::shared::tri_block`]), tested in one pass of vector arithmetic
+//!   with the scalar watertight test's exact answers.
 //!   4 + 6·4·4 = 112 bytes padded to 128 for `bvh4`; 256 bytes for `bvh8`.
 //! - Traversal (`traverse.rs`): every child's box in one pass, the hit
 //!   children visited nearest first (sorted by entry distance), a stack of
@@ -22,7 +25,7 @@
 mod collapse;
 mod traverse;
 
-use super::shared::leaf::LAST;
+use super::shared::tri_block::{self, TriBlock};
 use super::shared::MAX_STACK_DEPTH;
 use super::Accel;
 use crate::bvh::{Bvh, NodeKind};
@@ -31,7 +34,7 @@ use crate::geometry::{Aabb, Hit, Ray, Triangle};
 use crate::stats::Stats;
 use std::sync::Arc;
 
-/// Reference bit: the child is a leaf (the rest: its index-list position).
+/// Reference bit: the child is a leaf (the rest: its first triangle block).
 const LEAF: u32 = 1 << 31;
 /// The reference of an empty lane.
 const EMPTY: u32 = u32::MAX;
@@ -77,13 +80,13 @@ impl<const W: usize> WideNode<W> {
 #[derive(Clone, Debug)]
 pub struct WideBvh<const W: usize> {
     nodes: Vec<WideNode<W>>,
-    index: Vec<u32>,
+    blocks: Vec<TriBlock>,
     triangles: Arc<[Triangle]>,
     root_bounds: Aabb,
     /// The root's reference: node 0, or a leaf for a one-leaf tree.
     root: u32,
-    /// Canonical BVH id of each wide node, and of each leaf by its
-    /// index-list position (visit logs only).
+    /// Canonical BVH id of each wide node, and of each leaf by its first
+    /// block (visit logs only).
     node_ids: Vec<u32>,
     leaf_ids: Vec<(u32, u32)>,
     /// Wide levels below the root.
@@ -121,7 +124,7 @@ impl<const W: usize> WideBvh<W> {
         let plan = collapse::plan::<W>(bvh);
         let mut w = WideBvh {
             nodes: Vec::new(),
-            index: Vec::with_capacity(bvh.prims.len()),
+            blocks: Vec::with_capacity(bvh.prims.len() / 2),
             triangles,
             root_bounds: bvh.bounds(),
             root: 0,
@@ -141,11 +144,11 @@ impl<const W: usize> WideBvh<W> {
         let node = &bvh.nodes[id as usize];
         self.depth = self.depth.max(depth);
         if let NodeKind::Leaf { .. } = node.kind {
-            let at = self.index.len() as u32;
-            self.index.extend_from_slice(bvh.leaf_prims(node));
-            if let Some(last) = self.index.last_mut() {
-                *last |= LAST;
+            let prims = bvh.leaf_prims(node);
+            if prims.is_empty() {
+                return EMPTY;
             }
+            let at = tri_block::push_leaf(&mut self.blocks, prims, &self.triangles);
             self.leaf_ids.push((at, id));
             self.leaves += 1;
             return at | LEAF;
@@ -155,14 +158,19 @@ impl<const W: usize> WideBvh<W> {
         self.node_ids.push(id);
         let children = plan.children(bvh, id);
         debug_assert!(children.len() <= W);
-        for (k, &c) in children.iter().enumerate() {
+        let mut k = 0;
+        for &c in &children {
             let r = self.place(bvh, plan, c, depth + 1);
+            if r == EMPTY {
+                continue;
+            }
             let b = bvh.nodes[c as usize].bounds.to_array();
             let n = &mut self.nodes[at];
             for (row, v) in b.into_iter().enumerate() {
                 n.planes[row][k] = v;
             }
             n.children[k] = r;
+            k += 1;
         }
         at as u32
     }
@@ -172,9 +180,9 @@ impl<const W: usize> WideBvh<W> {
         &self.nodes
     }
 
-    /// The sign-terminated triangle index list ([`LAST`]).
-    pub fn index_list(&self) -> &[u32] {
-        &self.index
+    /// The leaves' triangle blocks.
+    pub fn blocks(&self) -> &[TriBlock] {
+        &self.blocks
     }
 
     /// Bytes of the nodes.
@@ -182,9 +190,10 @@ impl<const W: usize> WideBvh<W> {
         std::mem::size_of_val(&self.nodes[..])
     }
 
-    /// Bytes of the triangle index list.
+    /// Bytes of the leaves' triangle blocks (160 per four triangles: the
+    /// vertices copied beside their indices).
     pub fn index_bytes(&self) -> usize {
-        self.index.len() * 4
+        std::mem::size_of_val(&self.blocks[..])
     }
 
     /// Wide (inner) nodes.
@@ -210,7 +219,7 @@ impl<const W: usize> WideBvh<W> {
 
     /// Whether the tree holds no triangle.
     pub fn is_empty(&self) -> bool {
-        self.index.is_empty()
+        self.blocks.is_empty()
     }
 
     /// The canonical BVH id of reference `r` (visit logs).
@@ -261,7 +270,13 @@ mod tests {
         let w = WideBvh::<W>::from_bvh(&bvh, scene.triangles.clone()).unwrap();
         // Every binary leaf is a leaf, every triangle listed once.
         assert_eq!(w.leaves(), bvh.stats.leaves);
-        let mut listed: Vec<u32> = w.index.iter().map(|e| e & !LAST).collect();
+        let mut listed: Vec<u32> = w
+            .blocks
+            .iter()
+            .flat_map(|b| b.prims)
+            .filter(|&p| p != EMPTY)
+            .map(|e| e & !crate::structures::LAST)
+            .collect();
         listed.sort_unstable();
         let mut want = bvh.prims.clone();
         want.sort_unstable();

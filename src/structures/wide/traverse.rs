@@ -7,7 +7,8 @@ use super::{WideBvh, WideNode, LEAF};
 use crate::geometry::aabb::ROBUST_WIDENING;
 use crate::geometry::{BoxRay, Hit, Ray};
 use crate::stats::Stats;
-use crate::structures::shared::leaf::{enter, intersect_leaf};
+use crate::structures::shared::leaf::enter;
+use crate::structures::shared::tri_block::intersect_blocks;
 
 /// Entry distances of the `W` children of `n` (`+inf` for a miss or an
 /// empty lane): the slab test of [`BoxRay::test`], lane by lane, bit for bit
@@ -89,10 +90,10 @@ fn trace_n<const W: usize, S: Stats, const ANY: bool, const N: usize>(
             stats.visit(w.canonical_id(node));
         }
         if node & LEAF != 0 {
-            if intersect_leaf::<ANY, S>(
-                &w.index,
-                &w.triangles,
+            if intersect_blocks::<ANY, S>(
+                &w.blocks,
                 node & !LEAF,
+                &w.triangles,
                 ray,
                 &mut tmax,
                 &mut best,
