@@ -43,6 +43,7 @@ use json::accessor::{ComponentType, Type};
 use json::mesh::{Mode, Semantic};
 use json::validation::Checked;
 use std::borrow::Cow;
+use std::collections::hash_map::Entry;
 use std::collections::{BTreeSet, HashMap};
 use std::io::Read;
 use std::path::Path;
@@ -486,11 +487,11 @@ impl<'a> Loader<'a> {
             let json_mesh = &root.meshes[m];
             for p in 0..json_mesh.primitives.len() {
                 let here = || format!("mesh {m} primitive {p}");
-                if !prepared.contains_key(&(m, p)) {
-                    let made = self
-                        .prepare(m, p, buffers)
-                        .map_err(|e| format!("{}: {e}", here()))?;
-                    prepared.insert((m, p), made);
+                if let Entry::Vacant(slot) = prepared.entry((m, p)) {
+                    slot.insert(
+                        self.prepare(m, p, buffers)
+                            .map_err(|e| format!("{}: {e}", here()))?,
+                    );
                 }
                 let (positions, indices) = match &prepared[&(m, p)] {
                     Prepared::Skipped(kind) => {
@@ -613,7 +614,7 @@ impl<'a> Loader<'a> {
         let n = sequence.len();
         let mut triangles: Vec<[u32; 3]> = match mode {
             Mode::Triangles => {
-                if n % 3 != 0 {
+                if !n.is_multiple_of(3) {
                     return Err(format!(
                         "{n} {} for TRIANGLES, not a multiple of 3",
                         if primitive.indices.is_some() {

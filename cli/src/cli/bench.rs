@@ -31,7 +31,8 @@ pub enum BenchCommand {
 
 #[derive(Args, Debug)]
 pub struct PeersArgs {
-    /// Scenes, repeatable: built-in names or OBJ/PLY files [default: chess
+    /// Scenes, repeatable: built-in names or mesh files (.obj, .ply, .stl,
+    /// .gltf, .glb; several files joined by commas make one scene) [default: chess
     /// and hairball; with --preset paper, atrium, forest, plant:12M,
     /// chess:1M and hairball:1M].
     #[arg(long = "scene", short = 's')]
@@ -61,7 +62,8 @@ pub struct PeersArgs {
 
 #[derive(Args, Debug)]
 pub struct DstArgs {
-    /// Scenes, repeatable: built-in names or OBJ/PLY files [default: chess
+    /// Scenes, repeatable: built-in names or mesh files (.obj, .ply, .stl,
+    /// .gltf, .glb; several files joined by commas make one scene) [default: chess
     /// and hairball; with --preset paper, the paper's analogues atrium
     /// (Sponza), forest (vegetation), plant:12M (Powerplant), chess:1M and
     /// hairball:1M].
@@ -109,7 +111,8 @@ pub struct DstArgs {
 
 #[derive(Args, Debug)]
 pub struct StacklessArgs {
-    /// Scenes, repeatable: built-in names or OBJ/PLY files
+    /// Scenes, repeatable: built-in names or mesh files (.obj, .ply, .stl,
+    /// .gltf, .glb; several files joined by commas make one scene)
     /// [default: chess and hairball; with --preset paper, hairball:2.8M as in the paper].
     #[arg(long = "scene", short = 's')]
     scenes: Vec<String>,
