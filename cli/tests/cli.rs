@@ -1010,7 +1010,9 @@ fn trace_reports_geometry_ids_of_several_files() {
     three_files(dir.path());
     // Straight down at points inside known triangles -> (geometry, its
     // triangle); the cube's top is its triangles 2 (x + y < 1) and 3.
-    let cases: [((f32, f32), Option<(u32, u32, u32)>); 9] = [
+    // (geometry, triangle within it, triangle in the scene).
+    type Want = Option<(u32, u32, u32)>;
+    let cases: [((f32, f32), Want); 9] = [
         ((0.75, 0.25), Some((0, 0, 0))),
         ((0.25, 0.75), Some((0, 1, 1))),
         ((2.75, 0.25), Some((1, 0, 2))),
@@ -1042,7 +1044,7 @@ fn trace_reports_geometry_ids_of_several_files() {
             "{err}"
         );
         let bytes = std::fs::read(dir.path().join("h.out")).unwrap();
-        let got: Vec<Option<(u32, u32, u32)>> = match format {
+        let got: Vec<Want> = match format {
             "bin" => {
                 assert_eq!(bytes.len(), 16 * rays.len());
                 rayfile::decode_hits(&bytes)

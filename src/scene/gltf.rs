@@ -435,11 +435,19 @@ impl<'a> Loader<'a> {
                 let file = self.path.parent().unwrap_or(Path::new("")).join(&name);
                 let read = || -> std::io::Result<Vec<u8>> {
                     let f = std::fs::File::open(&file)?;
-                    if !f.metadata()?.is_file() {
+                    let meta = f.metadata()?;
+                    if !meta.is_file() {
                         return Err(std::io::Error::other("not a regular file"));
                     }
+                    if meta.len() < length {
+                        return Err(std::io::Error::other(format!(
+                            "it has {} bytes, fewer than the buffer's byteLength of {length}",
+                            meta.len()
+                        )));
+                    }
+                    // Never more than the buffer's length, whatever the file
+                    // is (nor from a file that claims no size, as in /proc).
                     let mut data = Vec::new();
-                    // Never more than the buffer's length, whatever the file is.
                     f.take(length).read_to_end(&mut data)?;
                     Ok(data)
                 };
@@ -650,10 +658,29 @@ impl<'a> Loader<'a> {
                 sequence[k]
             ));
         }
-        // The vertices used, in order of their index, numbered anew.
-        let mut used: Vec<u32> = sequence;
-        used.sort_unstable();
-        used.dedup();
+        // The vertices used, in order of their index, numbered anew: by a
+        // table over the accessor when it is not much larger than the
+        // index list (the usual case), else by sorting the index list (an
+        // accessor of zeros and sparse values can be huge).
+        let (used, table) = if count <= 2 * n + 1024 {
+            let mut table = vec![u32::MAX; count];
+            for &v in &sequence {
+                table[v as usize] = 0;
+            }
+            let mut used = Vec::new();
+            for (v, slot) in table.iter_mut().enumerate() {
+                if *slot != u32::MAX {
+                    *slot = used.len() as u32;
+                    used.push(v as u32);
+                }
+            }
+            (used, Some(table))
+        } else {
+            let mut used = sequence;
+            used.sort_unstable();
+            used.dedup();
+            (used, None)
+        };
         let mut local = Vec::with_capacity(used.len());
         for &v in &used {
             let q = positions.vec3(v as usize);
@@ -665,7 +692,10 @@ impl<'a> Loader<'a> {
             }
             local.push(q);
         }
-        let renumber = |v: u32| used.binary_search(&v).unwrap_or(0) as u32;
+        let renumber = |v: u32| match &table {
+            Some(table) => table[v as usize],
+            None => used.binary_search(&v).unwrap_or(0) as u32,
+        };
         for t in &mut triangles {
             *t = t.map(renumber);
         }

@@ -323,12 +323,30 @@ fn gltf_sparse_zero_filled_and_quantized_positions() {
         json!({"bufferView": view, "componentType": 5122, "normalized": true, "count": 3,
                "type": "VEC3", "min": [0, -1, 0], "max": [1, 0, 0]}),
     );
+    // A million zeros, two of them replaced, three of them used: the
+    // loader reads only those.
+    let far_indices = g.view(&[5u32, 999_999].map(u32::to_le_bytes).concat());
+    let far_values: Vec<u8> = [1.0f32, 0.0, 0.0, 0.0, 1.0, 0.0]
+        .iter()
+        .flat_map(|v| v.to_le_bytes())
+        .collect();
+    let far_values = g.view(&far_values);
+    let far = g.push(
+        "accessors",
+        json!({"componentType": 5126, "count": 1_000_000, "type": "VEC3",
+               "min": [0, 0, 0], "max": [1, 1, 0],
+               "sparse": {"count": 2,
+                          "indices": {"bufferView": far_indices, "componentType": 5125},
+                          "values": {"bufferView": far_values}}}),
+    );
     let idx = g.indices(&[0, 1, 2, 0, 2, 3], U8);
+    let far_idx = g.indices(&[999_999, 0, 5], U32);
     g.mesh(
         None,
         vec![
             json!({"attributes": {"POSITION": pos}, "indices": idx}),
             json!({"attributes": {"POSITION": quantized}}),
+            json!({"attributes": {"POSITION": far}, "indices": far_idx}),
         ],
     );
     g.node(json!({"mesh": 0}));
@@ -342,8 +360,12 @@ fn gltf_sparse_zero_filled_and_quantized_positions() {
             [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0]],
             [[0.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]],
             [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, -1.0, 0.0]],
+            [[0.0, 1.0, 0.0], [0.0, 0.0, 0.0], [1.0, 0.0, 0.0]],
         ]
     );
+    // Only the vertices used are kept, in the order of their index.
+    assert_eq!(mesh.positions.len(), 4 + 3 + 3);
+    assert_eq!(&mesh.positions[7..], [Vec3::ZERO, Vec3::X, Vec3::Y]);
 }
 
 /// The cube's triangles with every corner scaled by 0.1 and moved, which
@@ -656,7 +678,9 @@ fn gltf_bad_containers_and_buffers_name_the_file_and_the_element() {
     let path = write(dir.path(), "short.gltf", &json);
     let msg = Scene::load(&path).unwrap_err().to_string();
     assert!(
-        msg.contains("short.gltf: buffer 0: it has 10 bytes, fewer than its byteLength of 54"),
+        msg.contains("short.gltf: buffer 0: cannot read '")
+            && msg
+                .contains("short.bin': it has 10 bytes, fewer than the buffer's byteLength of 54"),
         "{msg}"
     );
     let (json, _) = g.external("https://example.com/a.bin");

@@ -11,7 +11,6 @@ use raytree::accel::StructureKind;
 use raytree::bvh::{BuildOptions, Builder};
 use raytree::error::Result;
 use raytree::render::{AoQuery, AoSettings, Sampling};
-use raytree::scene::Scene;
 use std::path::PathBuf;
 
 #[derive(Subcommand, Debug)]
@@ -206,7 +205,7 @@ fn run_peers(a: PeersArgs) -> Result<()> {
     let mut results = Vec::new();
     for spec in &scenes {
         bar.set_message(format!("bench peers: {spec}"));
-        let scene = Scene::from_spec(spec)?;
+        let scene = bar.suspend(|| common::load_spec(spec))?;
         let r = pool.install(|| peers::run_scene(&scene, &opts, &|| bar.inc(1)))?;
         let md = peers::markdown(&r);
         bar.suspend(|| say!("{md}"));
@@ -254,7 +253,7 @@ fn run_dst(a: DstArgs) -> Result<()> {
     let mut tables = Vec::new();
     for spec in &scenes {
         bar.set_message(format!("bench dst: {spec}"));
-        let mut scene = Scene::from_spec(spec)?;
+        let mut scene = bar.suspend(|| common::load_spec(spec))?;
         a.camera.apply(&mut scene.camera)?;
         let r = pool.install(|| dst::run_scene(&scene, &opts, &|| bar.inc(1)))?;
         let md = dst::markdown(&r);
@@ -337,7 +336,7 @@ fn run_stackless(a: StacklessArgs) -> Result<()> {
     let mut results = Vec::new();
     for spec in &scenes {
         bar.set_message(format!("bench stackless: {spec}"));
-        let mut scene = Scene::from_spec(spec)?;
+        let mut scene = bar.suspend(|| common::load_spec(spec))?;
         a.preset.apply_view(&mut scene);
         a.camera.apply(&mut scene.camera)?;
         let (w, h) = a.preset.size(&scene);

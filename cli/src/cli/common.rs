@@ -210,16 +210,22 @@ impl SceneReport {
     }
 }
 
+/// Loads the scene `spec`, saying on stderr what its loaders left out.
+pub fn load_spec(spec: &str) -> Result<Scene> {
+    let scene = Scene::from_spec(spec)?;
+    for w in &scene.warnings {
+        eprintln!("raytree: warning: {w}");
+    }
+    Ok(scene)
+}
+
 /// Loads the scene, saying on stderr what its loaders left out.
 pub fn load_scene(args: &SceneArgs) -> Result<(Scene, SceneReport)> {
     let start = std::time::Instant::now();
     let scene = {
         let _stage = Stage::new(format!("loading {}", args.scene));
-        Scene::from_spec(&args.scene)?
+        load_spec(&args.scene)?
     };
-    for w in &scene.warnings {
-        eprintln!("raytree: warning: {w}");
-    }
     let report = SceneReport::new(&scene, start.elapsed().as_secs_f64());
     Ok((scene, report))
 }
