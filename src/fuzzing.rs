@@ -16,10 +16,12 @@ use std::path::Path;
 /// is better spent on more inputs.
 const TRACE_LIMIT: usize = 2_000;
 
-/// A mesh file (the format by `name`'s extension): parsing gives a mesh or
-/// an error naming the file, never a panic; a mesh it accepts builds a valid
-/// BVH under both builders, and every structure converted from it finds
-/// the oracle's closest and any hits for rays through the camera.
+/// A mesh file (the format by `name`'s extension: `.obj`, `.ply`, `.stl`,
+/// `.gltf`, `.glb`): parsing gives a mesh or an error naming the file,
+/// never a panic; every triangle of a mesh it accepts maps to one geometry,
+/// the mesh builds a valid BVH under both builders, and every structure
+/// converted from it finds the oracle's closest and any hits for rays
+/// through the camera.
 pub fn mesh(data: &[u8], name: &str) {
     let mesh = match Mesh::parse(data, Path::new(name)) {
         Ok(m) => m,
@@ -28,6 +30,14 @@ pub fn mesh(data: &[u8], name: &str) {
             return;
         }
     };
+    // Every triangle lies in exactly one geometry, found by the map.
+    for t in 0..mesh.indices.len() as u32 {
+        let (g, local) = mesh
+            .geometry_of(t)
+            .unwrap_or_else(|| panic!("triangle {t} in no geometry"));
+        let geometry = &mesh.geometries[g as usize];
+        assert_eq!(geometry.first_triangle + local, t, "{geometry:?}");
+    }
     if mesh.indices.len() > TRACE_LIMIT {
         return;
     }
@@ -86,6 +96,7 @@ pub fn rayfile(data: &[u8]) {
         assert_eq!(rayfile::encode_rays(&rays), data, "ray file round trip");
     }
     let _ = rayfile::decode_hits(data);
+    let _ = rayfile::decode_geometry_hits(data);
 }
 
 /// Node words of the dual-split tree and the H-tree: at every position, the

@@ -2,13 +2,23 @@
 //!
 //! - Ray file: little-endian, no header, 32 bytes per ray: origin x y z,
 //!   direction x y z (any length), tmin, tmax, all f32.
-//! - Hit file: 16 bytes per ray: t (f32, +inf on a miss), triangle index
-//!   (u32, mesh order, `0xFFFFFFFF` on a miss), barycentrics u and v (f32).
-//! - Hit CSV: a header `ray,t,triangle,u,v` and one line per ray, with the
-//!   same values as the binary file.
+//! - Hit file (`--format bin`, the default): 16 bytes per ray: t (f32,
+//!   +inf on a miss), triangle index (u32, the scene's global triangle
+//!   order, `0xFFFFFFFF` on a miss), barycentrics u and v (f32).
+//! - Hit file with geometries (`--format bin-geometry`): 24 bytes per ray:
+//!   the same 16 bytes, then the geometry id (u32) and the triangle's index
+//!   within that geometry (u32), both `0xFFFFFFFF` on a miss. A scene's
+//!   geometries are its files, in the order given, and each triangle
+//!   primitive of each mesh instance of a glTF scene
+//!   ([`crate::scene::Mesh::geometries`]).
+//! - Hit CSV (`--format csv`): a header `ray,t,triangle,u,v,geometry,primitive`
+//!   and one line per ray with the same values as the binary files. The
+//!   two geometry columns come last, so readers of the first five columns
+//!   (by name or by position) read the file as before.
 
 use crate::error::{Error, Result};
 use crate::geometry::{Hit, Ray};
+use crate::scene::Mesh;
 use glam::Vec3;
 use std::io::Write;
 use std::path::Path;
@@ -17,8 +27,36 @@ use std::path::Path;
 pub const RAY_BYTES: usize = 32;
 /// Bytes per hit in a hit file: `t`, triangle index, `u`, `v`.
 pub const HIT_BYTES: usize = 16;
-/// The triangle index written for a miss.
+/// Bytes per ray of a hit file with geometries.
+pub const GEOMETRY_HIT_BYTES: usize = 24;
+/// The triangle index (and geometry id, and index within the geometry)
+/// written for a miss.
 pub const MISS: u32 = u32::MAX;
+
+/// A hit with the geometry it lies on: the geometry's id and the
+/// triangle's index within it ([`Mesh::geometry_of`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GeometryHit {
+    /// The hit, with the global triangle index.
+    pub hit: Hit,
+    /// The geometry's id.
+    pub geometry: u32,
+    /// The triangle's index within the geometry.
+    pub primitive: u32,
+}
+
+impl GeometryHit {
+    /// `hit` with its geometry in `mesh`; [`MISS`] for both when its
+    /// triangle is not one of the mesh's.
+    pub fn new(hit: Hit, mesh: &Mesh) -> GeometryHit {
+        let (geometry, primitive) = mesh.geometry_of(hit.prim).unwrap_or((MISS, MISS));
+        GeometryHit {
+            hit,
+            geometry,
+            primitive,
+        }
+    }
+}
 
 /// Decodes a ray file's bytes; `path` names it in errors. A size that is not
 /// a multiple of 32, or a ray that cannot be traced (non-finite origin or
@@ -80,45 +118,93 @@ pub fn encode_rays(rays: &[Ray]) -> Vec<u8> {
 pub fn encode_hits(hits: &[Option<Hit>]) -> Vec<u8> {
     let mut out = Vec::with_capacity(hits.len() * HIT_BYTES);
     for h in hits {
-        let (t, prim, u, v) = fields(h);
-        out.extend_from_slice(&t.to_le_bytes());
-        out.extend_from_slice(&prim.to_le_bytes());
-        out.extend_from_slice(&u.to_le_bytes());
-        out.extend_from_slice(&v.to_le_bytes());
+        for word in words(h) {
+            out.extend_from_slice(&word.to_le_bytes());
+        }
     }
     out
 }
 
-/// Decodes a binary hit file (the inverse of [`encode_hits`]).
+/// Encodes hits in the binary hit format with geometries: each hit's
+/// geometry in `mesh` and its index within it after the 16 bytes of
+/// [`encode_hits`].
+pub fn encode_geometry_hits(hits: &[Option<Hit>], mesh: &Mesh) -> Vec<u8> {
+    let mut out = Vec::with_capacity(hits.len() * GEOMETRY_HIT_BYTES);
+    for h in hits {
+        let (geometry, primitive) = geometry_fields(h, mesh);
+        for word in words(h).into_iter().chain([geometry, primitive]) {
+            out.extend_from_slice(&word.to_le_bytes());
+        }
+    }
+    out
+}
+
+/// Decodes a binary hit file (the inverse of [`encode_hits`]); `None` when
+/// its size is not a multiple of 16 bytes.
 pub fn decode_hits(bytes: &[u8]) -> Option<Vec<Option<Hit>>> {
     if !bytes.len().is_multiple_of(HIT_BYTES) {
         return None;
     }
+    Some(bytes.chunks_exact(HIT_BYTES).map(hit_of).collect())
+}
+
+/// Decodes a binary hit file with geometries (the inverse of
+/// [`encode_geometry_hits`]); `None` when its size is not a multiple of 24
+/// bytes.
+pub fn decode_geometry_hits(bytes: &[u8]) -> Option<Vec<Option<GeometryHit>>> {
+    if !bytes.len().is_multiple_of(GEOMETRY_HIT_BYTES) {
+        return None;
+    }
     Some(
         bytes
-            .chunks_exact(HIT_BYTES)
+            .chunks_exact(GEOMETRY_HIT_BYTES)
             .map(|c| {
-                let w = |k: usize| <[u8; 4]>::try_from(&c[4 * k..4 * k + 4]).unwrap();
-                let prim = u32::from_le_bytes(w(1));
-                (prim != MISS).then(|| Hit {
-                    t: f32::from_le_bytes(w(0)),
-                    prim,
-                    u: f32::from_le_bytes(w(2)),
-                    v: f32::from_le_bytes(w(3)),
+                hit_of(&c[..HIT_BYTES]).map(|hit| GeometryHit {
+                    hit,
+                    geometry: word(c, 4),
+                    primitive: word(c, 5),
                 })
             })
             .collect(),
     )
 }
 
-/// Writes hits as CSV text.
-pub fn write_hits_csv(w: &mut impl Write, hits: &[Option<Hit>]) -> std::io::Result<()> {
-    writeln!(w, "ray,t,triangle,u,v")?;
+/// Writes hits as CSV text, with each hit's geometry in `mesh` and its
+/// index within it in the last two columns.
+pub fn write_hits_csv(
+    w: &mut impl Write,
+    hits: &[Option<Hit>],
+    mesh: &Mesh,
+) -> std::io::Result<()> {
+    writeln!(w, "ray,t,triangle,u,v,geometry,primitive")?;
     for (i, h) in hits.iter().enumerate() {
         let (t, prim, u, v) = fields(h);
-        writeln!(w, "{i},{t},{prim},{u},{v}")?;
+        let (geometry, primitive) = geometry_fields(h, mesh);
+        writeln!(w, "{i},{t},{prim},{u},{v},{geometry},{primitive}")?;
     }
     Ok(())
+}
+
+/// The `k`-th little-endian 32-bit word of `c`.
+fn word(c: &[u8], k: usize) -> u32 {
+    u32::from_le_bytes([c[4 * k], c[4 * k + 1], c[4 * k + 2], c[4 * k + 3]])
+}
+
+/// One 16-byte record.
+fn hit_of(c: &[u8]) -> Option<Hit> {
+    let prim = word(c, 1);
+    (prim != MISS).then(|| Hit {
+        t: f32::from_bits(word(c, 0)),
+        prim,
+        u: f32::from_bits(word(c, 2)),
+        v: f32::from_bits(word(c, 3)),
+    })
+}
+
+/// A hit's 16 bytes as four words.
+fn words(h: &Option<Hit>) -> [u32; 4] {
+    let (t, prim, u, v) = fields(h);
+    [t.to_bits(), prim, u.to_bits(), v.to_bits()]
 }
 
 fn fields(h: &Option<Hit>) -> (f32, u32, f32, f32) {
@@ -126,6 +212,12 @@ fn fields(h: &Option<Hit>) -> (f32, u32, f32, f32) {
         Some(h) => (h.t, h.prim, h.u, h.v),
         None => (f32::INFINITY, MISS, 0.0, 0.0),
     }
+}
+
+/// A hit's geometry and index within it; [`MISS`] for both on a miss.
+fn geometry_fields(h: &Option<Hit>, mesh: &Mesh) -> (u32, u32) {
+    h.and_then(|h| mesh.geometry_of(h.prim))
+        .unwrap_or((MISS, MISS))
 }
 
 #[cfg(test)]
@@ -177,10 +269,63 @@ mod tests {
         assert_eq!(&bytes[0..8], &[0, 0, 0x80, 0x7f, 0xff, 0xff, 0xff, 0xff]);
         assert_eq!(decode_hits(&bytes).unwrap(), hits);
         let mut csv = Vec::new();
-        write_hits_csv(&mut csv, &hits).unwrap();
+        let mesh = eight_triangles();
+        write_hits_csv(&mut csv, &hits, &mesh).unwrap();
         assert_eq!(
             String::from_utf8(csv).unwrap(),
-            "ray,t,triangle,u,v\n0,inf,4294967295,0,0\n1,1.5,7,0.25,0.5\n"
+            "ray,t,triangle,u,v,geometry,primitive\n0,inf,4294967295,0,0,4294967295,4294967295\n1,1.5,7,0.25,0.5,1,2\n"
         );
+    }
+
+    /// Eight triangles in two geometries of 5 and 3.
+    fn eight_triangles() -> Mesh {
+        use crate::scene::Geometry;
+        let geometry = |name: &str, first_triangle, triangle_count| Geometry {
+            name: name.into(),
+            first_triangle,
+            triangle_count,
+        };
+        Mesh {
+            positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y],
+            indices: vec![[0, 1, 2]; 8],
+            geometries: vec![geometry("a", 0, 5), geometry("b", 5, 3)],
+        }
+    }
+
+    #[test]
+    fn geometry_hits_round_trip_and_keep_the_first_16_bytes() {
+        let mesh = eight_triangles();
+        let hit = |prim| Hit {
+            t: 2.5,
+            prim,
+            u: 0.125,
+            v: 0.0,
+        };
+        let hits = vec![Some(hit(4)), None, Some(hit(5)), Some(hit(9))];
+        let bytes = encode_geometry_hits(&hits, &mesh);
+        assert_eq!(bytes.len(), 4 * GEOMETRY_HIT_BYTES);
+        let plain = encode_hits(&hits);
+        for (long, short) in bytes.chunks(24).zip(plain.chunks(16)) {
+            assert_eq!(&long[..16], short);
+        }
+        assert_eq!(&bytes[40..48], &[0xff; 8]);
+        let back = decode_geometry_hits(&bytes).unwrap();
+        assert_eq!(
+            back,
+            vec![
+                Some(GeometryHit::new(hit(4), &mesh)),
+                None,
+                Some(GeometryHit::new(hit(5), &mesh)),
+                Some(GeometryHit::new(hit(9), &mesh)),
+            ]
+        );
+        let got: Vec<_> = back
+            .iter()
+            .flatten()
+            .map(|g| (g.geometry, g.primitive))
+            .collect();
+        // Triangle 9 is not the mesh's: no geometry.
+        assert_eq!(got, [(0, 4), (1, 0), (MISS, MISS)]);
+        assert!(decode_geometry_hits(&bytes[..30]).is_none());
     }
 }

@@ -128,6 +128,7 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<Mesh> {
     let mut mesh = Mesh {
         positions: Vec::with_capacity(vertices.len()),
         indices: Vec::new(),
+        geometries: Vec::new(),
     };
     for (i, v) in vertices.iter().enumerate() {
         let coord = |k: &str| v.get(k).and_then(Property::to_f32_lossy);

@@ -57,8 +57,13 @@ fn empty_and_degenerate_meshes_are_refused() {
 fn missing_file_and_unknown_format() {
     let err = Scene::load("/nonexistent/x.obj").unwrap_err().to_string();
     assert!(err.contains("/nonexistent/x.obj"), "{err}");
-    let msg = load("mesh.stl", b"solid x\n");
-    assert!(msg.contains("unknown mesh format"), "{msg}");
+    let msg = load("mesh.3ds", b"solid x\n");
+    assert!(
+        msg.contains(
+            "unknown mesh format: expected a file ending in .obj, .ply, .stl, .gltf, .glb"
+        ),
+        "{msg}"
+    );
     let err = Scene::from_spec("no-such-scene").unwrap_err().to_string();
     assert!(err.contains("chess") && err.contains("hairball"), "{err}");
 }

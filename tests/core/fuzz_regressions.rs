@@ -32,6 +32,23 @@ fn ply_inputs() {
 }
 
 #[test]
+fn stl_inputs() {
+    assert!(replay("stl", |d| raytree::fuzzing::mesh(d, "fuzz.stl")) > 0);
+}
+
+/// The `glb` and `gltf` targets' inputs: one loader, which tells GLB from
+/// JSON by content, under either name.
+#[test]
+fn gltf_inputs() {
+    assert!(
+        replay("gltf", |d| {
+            raytree::fuzzing::mesh(d, "fuzz.gltf");
+            raytree::fuzzing::mesh(d, "fuzz.glb");
+        }) > 0
+    );
+}
+
+#[test]
 fn rayfile_inputs() {
     assert!(replay("rayfile", raytree::fuzzing::rayfile) > 0);
 }

@@ -10,7 +10,6 @@ use clap::{Args, Subcommand};
 use raytree::bvh::{BuildOptions, Builder};
 use raytree::error::Result;
 use raytree::render::{AoQuery, AoSettings, Sampling};
-use raytree::scene::Scene;
 use raytree::structures::StructureKind;
 use std::path::PathBuf;
 
@@ -31,7 +30,8 @@ pub enum BenchCommand {
 
 #[derive(Args, Debug)]
 pub struct PeersArgs {
-    /// Scenes, repeatable: built-in names or OBJ/PLY files [default: chess
+    /// Scenes, repeatable: built-in names or mesh files (.obj, .ply, .stl,
+    /// .gltf, .glb; several files joined by commas make one scene) [default: chess
     /// and hairball; with --preset paper, atrium, forest, plant:12M,
     /// chess:1M and hairball:1M].
     #[arg(long = "scene", short = 's')]
@@ -61,7 +61,8 @@ pub struct PeersArgs {
 
 #[derive(Args, Debug)]
 pub struct DstArgs {
-    /// Scenes, repeatable: built-in names or OBJ/PLY files [default: chess
+    /// Scenes, repeatable: built-in names or mesh files (.obj, .ply, .stl,
+    /// .gltf, .glb; several files joined by commas make one scene) [default: chess
     /// and hairball; with --preset paper, the paper's analogues atrium
     /// (Sponza), forest (vegetation), plant:12M (Powerplant), chess:1M and
     /// hairball:1M].
@@ -109,7 +110,8 @@ pub struct DstArgs {
 
 #[derive(Args, Debug)]
 pub struct StacklessArgs {
-    /// Scenes, repeatable: built-in names or OBJ/PLY files
+    /// Scenes, repeatable: built-in names or mesh files (.obj, .ply, .stl,
+    /// .gltf, .glb; several files joined by commas make one scene)
     /// [default: chess and hairball; with --preset paper, hairball:2.8M as in the paper].
     #[arg(long = "scene", short = 's')]
     scenes: Vec<String>,
@@ -203,7 +205,7 @@ fn run_peers(a: PeersArgs) -> Result<()> {
     let mut results = Vec::new();
     for spec in &scenes {
         bar.set_message(format!("bench peers: {spec}"));
-        let scene = Scene::from_spec(spec)?;
+        let scene = bar.suspend(|| common::load_spec(spec))?;
         let r = pool.install(|| peers::run_scene(&scene, &opts, &|| bar.inc(1)))?;
         let md = peers::markdown(&r);
         bar.suspend(|| say!("{md}"));
@@ -251,7 +253,7 @@ fn run_dst(a: DstArgs) -> Result<()> {
     let mut tables = Vec::new();
     for spec in &scenes {
         bar.set_message(format!("bench dst: {spec}"));
-        let mut scene = Scene::from_spec(spec)?;
+        let mut scene = bar.suspend(|| common::load_spec(spec))?;
         a.camera.apply(&mut scene.camera)?;
         let r = pool.install(|| dst::run_scene(&scene, &opts, &|| bar.inc(1)))?;
         let md = dst::markdown(&r);
@@ -334,7 +336,7 @@ fn run_stackless(a: StacklessArgs) -> Result<()> {
     let mut results = Vec::new();
     for spec in &scenes {
         bar.set_message(format!("bench stackless: {spec}"));
-        let mut scene = Scene::from_spec(spec)?;
+        let mut scene = bar.suspend(|| common::load_spec(spec))?;
         a.preset.apply_view(&mut scene);
         a.camera.apply(&mut scene.camera)?;
         let (w, h) = a.preset.size(&scene);

@@ -16,7 +16,10 @@ use std::path::Path;
 #[derive(Args, Clone, Debug)]
 pub struct SceneArgs {
     /// Scene: a built-in name with an optional size in triangles
-    /// (chess, chess:200k, hairball, hairball:3M) or an OBJ/PLY file.
+    /// (chess, chess:200k, hairball, hairball:3M), a mesh file (.obj, .ply,
+    /// .stl, .gltf, .glb), or mesh files separated by commas (a.obj,b.glb)
+    /// loaded as one scene: one geometry per file, and per triangle
+    /// primitive of each mesh instance of a glTF scene.
     #[arg(long, short = 's', default_value = "chess")]
     pub scene: String,
     /// BVH builder: binned SAH, or SAH for the top 8 levels and median
@@ -161,21 +164,69 @@ pub struct SceneReport {
     pub bounds_min: [f32; 3],
     pub bounds_max: [f32; 3],
     pub load_seconds: f64,
+    /// The scene's geometries: each file, and each triangle primitive
+    /// instance of a glTF scene; hits name them by id.
+    pub geometries: Vec<GeometryReport>,
+    /// What the loaders left out or did not apply.
+    pub warnings: Vec<String>,
 }
 
+/// One geometry of a scene.
+#[derive(Serialize)]
+pub struct GeometryReport {
+    /// Its id: hit files and CSV give it beside the triangle.
+    pub id: usize,
+    pub name: String,
+    /// Its first triangle's index in the scene.
+    pub first_triangle: u32,
+    pub triangles: u32,
+}
+
+impl SceneReport {
+    /// What `scene` holds, loaded in `load_seconds`.
+    pub fn new(scene: &Scene, load_seconds: f64) -> SceneReport {
+        let b = scene.mesh.bounds();
+        SceneReport {
+            scene: scene.name.clone(),
+            triangles: scene.mesh.triangle_count(),
+            vertices: scene.mesh.positions.len(),
+            bounds_min: b.min.to_array(),
+            bounds_max: b.max.to_array(),
+            load_seconds,
+            geometries: scene
+                .mesh
+                .geometries
+                .iter()
+                .enumerate()
+                .map(|(id, g)| GeometryReport {
+                    id,
+                    name: g.name.clone(),
+                    first_triangle: g.first_triangle,
+                    triangles: g.triangle_count,
+                })
+                .collect(),
+            warnings: scene.warnings.clone(),
+        }
+    }
+}
+
+/// Loads the scene `spec`, saying on stderr what its loaders left out.
+pub fn load_spec(spec: &str) -> Result<Scene> {
+    let scene = Scene::from_spec(spec)?;
+    for w in &scene.warnings {
+        eprintln!("raytree: warning: {w}");
+    }
+    Ok(scene)
+}
+
+/// Loads the scene, saying on stderr what its loaders left out.
 pub fn load_scene(args: &SceneArgs) -> Result<(Scene, SceneReport)> {
-    let _stage = Stage::new(format!("loading {}", args.scene));
     let start = std::time::Instant::now();
-    let scene = Scene::from_spec(&args.scene)?;
-    let b = scene.mesh.bounds();
-    let report = SceneReport {
-        scene: scene.name.clone(),
-        triangles: scene.mesh.triangle_count(),
-        vertices: scene.mesh.positions.len(),
-        bounds_min: b.min.to_array(),
-        bounds_max: b.max.to_array(),
-        load_seconds: start.elapsed().as_secs_f64(),
+    let scene = {
+        let _stage = Stage::new(format!("loading {}", args.scene));
+        load_spec(&args.scene)?
     };
+    let report = SceneReport::new(&scene, start.elapsed().as_secs_f64());
     Ok((scene, report))
 }
 

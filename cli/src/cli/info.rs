@@ -66,6 +66,28 @@ pub fn run(args: InfoArgs) -> Result<()> {
         r.scene.load_seconds
     );
     say!("bounds      {lo:?} .. {hi:?}");
+    let geometries = &r.scene.geometries;
+    say!("geometries  {}", geometries.len());
+    // A glTF scene can hold thousands: the first few here, all in --json.
+    const SHOWN: usize = 10;
+    if geometries.len() > 1 {
+        for g in geometries.iter().take(SHOWN) {
+            say!(
+                "  {:>4}  {}: {} triangles ({}..{})",
+                g.id,
+                g.name,
+                g.triangles,
+                g.first_triangle,
+                u64::from(g.first_triangle) + u64::from(g.triangles)
+            );
+        }
+        if geometries.len() > SHOWN {
+            say!(
+                "  ...   and {} more (--json lists them all)",
+                geometries.len() - SHOWN
+            );
+        }
+    }
     let b = &r.bvh;
     say!(
         "bvh         {} builder, leaves of at most {}: {} nodes ({} inner, {} leaves), depth {}, SAH cost {:.3}, {} degenerate triangles left out, built in {:.3} s",

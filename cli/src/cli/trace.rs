@@ -26,9 +26,9 @@ pub struct TraceArgs {
     #[arg(long)]
     rays: PathBuf,
     /// Hit file: 16 bytes per ray, f32 t (+inf on a miss), u32 triangle
-    /// (0xFFFFFFFF on a miss), f32 u, v; or CSV with --format csv. "-"
-    /// writes them to standard output, and the report then goes to
-    /// standard error.
+    /// (the scene's order, 0xFFFFFFFF on a miss), f32 u, v; 24 bytes with
+    /// --format bin-geometry; or CSV with --format csv. "-" writes them to
+    /// standard output, and the report then goes to standard error.
     #[arg(long, short = 'o')]
     out: PathBuf,
     /// Any hit instead of the closest: t is some hit's distance in [tmin, tmax].
@@ -51,9 +51,12 @@ pub struct TraceArgs {
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 enum Format {
-    /// 16 bytes per ray.
+    /// 16 bytes per ray: t, triangle, u, v.
     Bin,
-    /// Text: ray,t,triangle,u,v.
+    /// 24 bytes per ray: the 16 of bin, then u32 geometry id and u32
+    /// triangle index within the geometry (0xFFFFFFFF on a miss).
+    BinGeometry,
+    /// Text: ray,t,triangle,u,v,geometry,primitive.
     Csv,
 }
 
@@ -132,7 +135,8 @@ pub fn run(args: TraceArgs) -> Result<()> {
         });
         let write = |w: &mut dyn std::io::Write| match args.format {
             Format::Bin => w.write_all(&rayfile::encode_hits(&hits)),
-            Format::Csv => rayfile::write_hits_csv(&mut &mut *w, &hits),
+            Format::BinGeometry => w.write_all(&rayfile::encode_geometry_hits(&hits, &scene.mesh)),
+            Format::Csv => rayfile::write_hits_csv(&mut &mut *w, &hits, &scene.mesh),
         };
         if raytree::render::is_stdout(&args.out) {
             let mut out = std::io::stdout().lock();

@@ -4,6 +4,10 @@
 mod common;
 
 use crate::support;
+
+#[path = "../../../tests/core/scenes/files.rs"]
+mod files;
+
 use raytree::prelude::*;
 use raytree::rayfile;
 use std::path::Path;
@@ -186,7 +190,7 @@ fn trace_gives_the_librarys_answers() {
         ok(&raytree(&args, dir.path()));
         let csv = std::fs::read_to_string(dir.path().join("h.csv")).unwrap();
         let lines: Vec<&str> = csv.lines().collect();
-        assert_eq!(lines[0], "ray,t,triangle,u,v");
+        assert_eq!(lines[0], "ray,t,triangle,u,v,geometry,primitive");
         assert_eq!(lines.len(), rays.len() + 1);
         for (i, (line, r)) in lines[1..].iter().zip(&rays).enumerate() {
             let f: Vec<&str> = line.split(',').collect();
@@ -200,8 +204,13 @@ fn trace_gives_the_librarys_answers() {
                 Some(h) => {
                     assert_eq!(f[1].parse::<f32>().unwrap(), h.t);
                     assert_eq!(f[2].parse::<u32>().unwrap(), h.prim);
+                    // A built-in scene is one geometry.
+                    assert_eq!(f[5..], ["0".to_string(), h.prim.to_string()]);
                 }
-                None => assert_eq!((f[1], f[2]), ("inf", "4294967295")),
+                None => assert_eq!(
+                    (f[1], f[2], f[5], f[6]),
+                    ("inf", "4294967295", "4294967295", "4294967295")
+                ),
             }
         }
     }
@@ -953,4 +962,221 @@ fn negative_numbers_get_a_message_about_the_value() {
         ],
         dir.path(),
     ));
+}
+
+/// Writes the files of a three-file scene into `dir`: `a.obj` (a quad at x
+/// in [0, 1], z = 0), `b.stl` (binary, a quad at x in [2, 3]) and `c.glb`
+/// (the unit cube at x = 4 and x = 6, and a LINES primitive per instance).
+fn three_files(dir: &Path) {
+    use files::{cube, stl_binary, Gltf, U16};
+    use serde_json::json;
+    std::fs::write(
+        dir.join("a.obj"),
+        "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("b.stl"),
+        stl_binary(
+            b"solid quad",
+            &[
+                [[2.0, 0.0, 0.0], [3.0, 0.0, 0.0], [3.0, 1.0, 0.0]],
+                [[2.0, 0.0, 0.0], [3.0, 1.0, 0.0], [2.0, 1.0, 0.0]],
+            ],
+        ),
+    )
+    .unwrap();
+    let mut g = Gltf::new();
+    let (points, indices) = cube();
+    let pos = g.positions(&points);
+    let idx = g.indices(&indices, U16);
+    let line = g.indices(&[0, 7], U16);
+    g.mesh(
+        Some("Cube"),
+        vec![
+            json!({"attributes": {"POSITION": pos}, "indices": idx}),
+            json!({"attributes": {"POSITION": pos}, "indices": line, "mode": 1}),
+        ],
+    );
+    g.node(json!({"mesh": 0, "translation": [4.0, 0.0, 0.0]}));
+    g.node(json!({"mesh": 0, "translation": [6.0, 0.0, 0.0]}));
+    g.scene(&[0, 1]);
+    std::fs::write(dir.join("c.glb"), g.glb()).unwrap();
+}
+
+#[test]
+fn trace_reports_geometry_ids_of_several_files() {
+    let dir = tempfile::tempdir().unwrap();
+    three_files(dir.path());
+    // Straight down at points inside known triangles -> (geometry, its
+    // triangle); the cube's top is its triangles 2 (x + y < 1) and 3.
+    // (geometry, triangle within it, triangle in the scene).
+    type Want = Option<(u32, u32, u32)>;
+    let cases: [((f32, f32), Want); 9] = [
+        ((0.75, 0.25), Some((0, 0, 0))),
+        ((0.25, 0.75), Some((0, 1, 1))),
+        ((2.75, 0.25), Some((1, 0, 2))),
+        ((2.25, 0.75), Some((1, 1, 3))),
+        ((4.25, 0.25), Some((2, 2, 6))),
+        ((4.75, 0.75), Some((2, 3, 7))),
+        ((6.25, 0.25), Some((3, 2, 18))),
+        ((6.75, 0.75), Some((3, 3, 19))),
+        ((5.5, 0.5), None),
+    ];
+    let rays: Vec<Ray> = cases
+        .iter()
+        .map(|&((x, y), _)| Ray::infinite(Vec3::new(x, y, 10.0), Vec3::NEG_Z))
+        .collect();
+    std::fs::write(dir.path().join("r.rays"), rayfile::encode_rays(&rays)).unwrap();
+    let scene = "a.obj,b.stl,c.glb";
+    for format in ["bin", "bin-geometry", "csv"] {
+        let out = raytree(
+            &[
+                "trace", "-s", scene, "--rays", "r.rays", "-o", "h.out", "--format", format,
+                "--json", "t.json",
+            ],
+            dir.path(),
+        );
+        ok(&out);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.contains("raytree: warning: c.glb: skipped 2 primitives of mode LINES"),
+            "{err}"
+        );
+        let bytes = std::fs::read(dir.path().join("h.out")).unwrap();
+        let got: Vec<Want> = match format {
+            "bin" => {
+                assert_eq!(bytes.len(), 16 * rays.len());
+                rayfile::decode_hits(&bytes)
+                    .unwrap()
+                    .iter()
+                    .map(|h| h.map(|h| (0, 0, h.prim)))
+                    .collect()
+            }
+            "bin-geometry" => {
+                assert_eq!(bytes.len(), 24 * rays.len());
+                rayfile::decode_geometry_hits(&bytes)
+                    .unwrap()
+                    .iter()
+                    .map(|h| h.map(|h| (h.geometry, h.primitive, h.hit.prim)))
+                    .collect()
+            }
+            _ => {
+                let text = String::from_utf8(bytes).unwrap();
+                let mut lines = text.lines();
+                assert_eq!(lines.next(), Some("ray,t,triangle,u,v,geometry,primitive"));
+                lines
+                    .map(|l| {
+                        let f: Vec<&str> = l.split(',').collect();
+                        let n = |k: usize| f[k].parse::<u32>().unwrap();
+                        (n(2) != rayfile::MISS).then(|| (n(5), n(6), n(2)))
+                    })
+                    .collect()
+            }
+        };
+        let want: Vec<_> = cases
+            .iter()
+            .map(|&(_, w)| {
+                w.map(|(g, l, t)| {
+                    if format == "bin" {
+                        (0, 0, t)
+                    } else {
+                        (g, l, t)
+                    }
+                })
+            })
+            .collect();
+        assert_eq!(got, want, "{format}");
+        if format == "csv" {
+            // The misses' geometry columns.
+            let text = std::fs::read_to_string(dir.path().join("h.out")).unwrap();
+            assert!(text.ends_with("8,inf,4294967295,0,0,4294967295,4294967295\n"));
+        }
+        let json: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(dir.path().join("t.json")).unwrap()).unwrap();
+        assert_eq!(json["geometries"].as_array().unwrap().len(), 4);
+        assert_eq!(json["geometries"][3]["first_triangle"], 16);
+        assert_eq!(
+            json["warnings"][0],
+            "c.glb: skipped 2 primitives of mode LINES"
+        );
+    }
+}
+
+#[test]
+fn info_and_render_accept_gltf_stl_and_several_files() {
+    let dir = tempfile::tempdir().unwrap();
+    three_files(dir.path());
+    let out = ok(&raytree(
+        &["info", "-s", "a.obj,b.stl,c.glb", "--json", "i.json"],
+        dir.path(),
+    ));
+    assert!(out.contains("triangles   28 (24 vertices)"), "{out}");
+    assert!(
+        out.contains(
+            "geometries  4\n     0  a.obj: 2 triangles (0..2)\n     1  b.stl: 2 triangles (2..4)\n     2  c.glb: node 0, mesh 0 \"Cube\", primitive 0: 12 triangles (4..16)\n"
+        ),
+        "{out}"
+    );
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("i.json")).unwrap()).unwrap();
+    let g = &json["geometries"];
+    assert_eq!(g[0]["name"], "a.obj");
+    assert_eq!(g[1]["name"], "b.stl");
+    assert_eq!(g[1]["id"], 1);
+    assert_eq!(g[1]["triangles"], 2);
+    assert_eq!(g[2]["name"], "c.glb: node 0, mesh 0 \"Cube\", primitive 0");
+    assert_eq!(json["scene"], "a.obj,b.stl,c.glb");
+    for scene in ["c.glb", "b.stl", "a.obj,c.glb"] {
+        let out = ok(&raytree(&["info", "-s", scene], dir.path()));
+        assert!(out.contains("geometries"), "{out}");
+        ok(&raytree(
+            &[
+                "render", "-s", scene, "--width", "24", "--height", "16", "-q", "-o", "r.png",
+            ],
+            dir.path(),
+        ));
+        assert!(dir.path().join("r.png").exists());
+    }
+    // A built-in scene is one geometry.
+    let out = ok(&raytree(&["info", "-s", "chess:2000"], dir.path()));
+    assert!(out.contains("geometries  1\n"), "{out}");
+}
+
+#[test]
+fn bad_scene_files_fail_with_the_file_and_element() {
+    let dir = tempfile::tempdir().unwrap();
+    three_files(dir.path());
+    let mut glb = std::fs::read(dir.path().join("c.glb")).unwrap();
+    glb.truncate(glb.len() - 4);
+    std::fs::write(dir.path().join("cut.glb"), glb).unwrap();
+    let stl = std::fs::read(dir.path().join("b.stl")).unwrap();
+    std::fs::write(dir.path().join("cut.stl"), &stl[..stl.len() - 1]).unwrap();
+    for (scene, needle) in [
+        ("cut.glb", "cut.glb: GLB: its header gives a length of"),
+        (
+            "cut.stl",
+            "cut.stl: binary STL: its header counts 2 triangles",
+        ),
+        ("a.obj,cut.stl", "cut.stl: binary STL"),
+        ("a.obj,,b.stl", "has an empty entry"),
+        ("chess,a.obj", "'chess' is a built-in scene"),
+        ("a.obj,none.glb", "none.glb"),
+    ] {
+        for command in ["info", "render", "trace"] {
+            let mut args = vec![command, "-s", scene];
+            if command == "trace" {
+                std::fs::write(dir.path().join("r.rays"), [0u8; 0]).unwrap();
+                args.extend(["--rays", "r.rays", "-o", "h.bin"]);
+            } else if command == "render" {
+                args.extend(["-o", "x.png", "-q"]);
+            }
+            let out = raytree(&args, dir.path());
+            let err = String::from_utf8_lossy(&out.stderr);
+            assert_eq!(out.status.code(), Some(1), "{args:?}: {err}");
+            assert!(err.contains(needle), "{args:?}: {err}");
+            assert_eq!(err.lines().count(), 1, "{err}");
+        }
+    }
+    assert!(!dir.path().join("x.png").exists() && !dir.path().join("h.bin").exists());
 }

@@ -90,6 +90,9 @@ pub fn build(spec: &str) -> Result<Scene> {
     super::memory::check_fits(spec, size as u64, super::memory::available_bytes()?)?;
     let mut scene = (b.make)(size);
     scene.name = format!("{name}:{size}");
+    for g in &mut scene.mesh.geometries {
+        g.name.clone_from(&scene.name);
+    }
     Ok(scene)
 }
 
