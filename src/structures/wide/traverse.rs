@@ -58,7 +58,9 @@ pub fn trace<const W: usize, S: Stats, const ANY: bool>(
 ) -> Option<Hit> {
     // A stack holds at most W − 1 pending children per level.
     match w.depth as usize * (W - 1) + 1 {
-        0..=64 => trace_n::<W, S, ANY, 64>(w, ray, stats),
+        0..=16 => trace_n::<W, S, ANY, 16>(w, ray, stats),
+        17..=32 => trace_n::<W, S, ANY, 32>(w, ray, stats),
+        33..=64 => trace_n::<W, S, ANY, 64>(w, ray, stats),
         65..=128 => trace_n::<W, S, ANY, 128>(w, ray, stats),
         129..=256 => trace_n::<W, S, ANY, 256>(w, ray, stats),
         257..=512 => trace_n::<W, S, ANY, 512>(w, ray, stats),
