@@ -66,6 +66,10 @@ pub struct CbvhNode {
 }
 
 impl CbvhNode {
+    /// Planes a node stores (`lo` and `hi`: six, shared by its two
+    /// children), each tested once per visit.
+    pub const PLANES: u32 = 6;
+
     /// Encodes the children `c` of the parent box `p` (which must be their
     /// exact union) with references `refs` (owner bits clear).
     pub fn encode(p: &Aabb, c: [&Aabb; 2], refs: [u32; 2]) -> CbvhNode {

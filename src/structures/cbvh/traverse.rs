@@ -10,7 +10,7 @@
 //! STACK's over the uncompressed BVH bit for bit. A stack entry is a child
 //! reference and its plane distances.
 
-use super::{CompactBvh, INDEX_MASK, LEAF, OWNER_SHIFT};
+use super::{CbvhNode, CompactBvh, INDEX_MASK, LEAF, OWNER_SHIFT};
 use crate::geometry::{Hit, Ray};
 use crate::stats::Stats;
 use crate::structures::shared::leaf::{enter, intersect_leaf};
@@ -86,7 +86,7 @@ fn trace_n<S: Stats, const ANY: bool, const N: usize>(
             }
         } else {
             let n = &nodes[node as usize];
-            tally.planes += 6;
+            tally.planes += CbvhNode::PLANES;
             // Per axis, lanes [lo_0, lo_1, hi_0, hi_1]: a child's plane is
             // the node's own where the child owns it (its distance is in
             // `here`), the stored one otherwise.

@@ -22,6 +22,9 @@
 use crate::error::{Error, Result};
 use crate::structures::shared::interval::face_code;
 
+/// Planes a split or carving node stores after its header word (a 12-byte
+/// node: §4.1).
+pub(super) const NODE_PLANES: usize = 2;
 /// Bits of the offset field.
 pub(super) const OFFSET_BITS: u32 = 26;
 pub(super) const OFFSET_MASK: u32 = (1 << OFFSET_BITS) - 1;

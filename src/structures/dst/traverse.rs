@@ -14,7 +14,7 @@
 //! simulation on bunny.obj's path rays) and sped the traversal up by
 //! about 10%.
 
-use super::node::{is_split, CARVE_FACES, LEAF_HEADER, OFFSET_BITS, OFFSET_MASK};
+use super::node::{is_split, CARVE_FACES, LEAF_HEADER, NODE_PLANES, OFFSET_BITS, OFFSET_MASK};
 use super::DualSplitTree;
 use crate::geometry::{Hit, Ray};
 use crate::stats::Stats;
@@ -59,9 +59,11 @@ fn trace_n<S: Stats, const ANY: bool, const N: usize>(
         let h = w >> OFFSET_BITS;
         let offset = w & OFFSET_MASK;
         // A plain leaf, the only node without planes, may end the words.
-        let planes = || -> &[u32; 2] { words[node + 1..node + 3].try_into().unwrap() };
+        let planes = || -> &[u32; NODE_PLANES] {
+            words[node + 1..node + 1 + NODE_PLANES].try_into().unwrap()
+        };
         let descend = if is_split(h) {
-            tally.planes += 2;
+            tally.planes += NODE_PLANES as u32;
             let a = (h >> 2 & 3) as usize;
             let first = node + offset as usize;
             let second = first + (h & 3) as usize;
@@ -74,7 +76,7 @@ fn trace_n<S: Stats, const ANY: bool, const N: usize>(
                 None => None,
             }
         } else if h != LEAF_HEADER {
-            tally.planes += 2;
+            tally.planes += NODE_PLANES as u32;
             let c = CARVE_FACES[h as usize];
             for (&face, &p) in c.faces.iter().zip(planes()) {
                 (tmin, tmax) = r.clip(face as usize, f32::from_bits(p), tmin, tmax);

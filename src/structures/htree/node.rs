@@ -17,6 +17,8 @@
 
 use crate::error::{Error, Result};
 
+/// Planes a split node stores after its header word (12 bytes).
+pub(super) const SPLIT_PLANES: usize = 2;
 /// Header bits holding a split node's second-child offset.
 pub(super) const OFFSET_BITS: u32 = 28;
 pub(super) const OFFSET_MASK: u32 = (1 << OFFSET_BITS) - 1;

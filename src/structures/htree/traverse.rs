@@ -7,7 +7,7 @@
 //! the interval is already clipped to. Popped entries are culled against
 //! the closest hit; the traversal runs until the stack is empty.
 
-use super::node::{LEAF_MASK, OFFSET_BITS, OFFSET_MASK};
+use super::node::{LEAF_MASK, OFFSET_BITS, OFFSET_MASK, SPLIT_PLANES};
 use super::HTree;
 use crate::geometry::{Hit, Ray};
 use crate::stats::Stats;
@@ -46,9 +46,9 @@ fn trace_n<S: Stats, const ANY: bool, const N: usize>(
         let w = words[node];
         match w >> 30 {
             0 => {
-                tally.planes += 2;
+                tally.planes += SPLIT_PLANES as u32;
                 let a = (w >> OFFSET_BITS & 3) as usize;
-                let planes = words[node + 1..node + 3].try_into().unwrap();
+                let planes = words[node + 1..node + 1 + SPLIT_PLANES].try_into().unwrap();
                 let (first, second) = (node + 3, node + (w & OFFSET_MASK) as usize);
                 let children = split_children(&r, a, planes, first, second, tmin, tmax);
                 if let Some(next) = next_child(children, &mut stack, &mut sp) {
