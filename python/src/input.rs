@@ -100,9 +100,8 @@ pub fn float_array<'py>(obj: &Bound<'py, PyAny>, what: &str) -> PyResult<FloatAr
     let np = py.import("numpy")?;
     let kwargs = pyo3::types::PyDict::new(py);
     kwargs.set_item("dtype", np.getattr(target)?)?;
-    let c = np
-        .getattr("ascontiguousarray")?
-        .call((&arr,), Some(&kwargs))?;
+    kwargs.set_item("order", "C")?;
+    let c = np.getattr("asarray")?.call((&arr,), Some(&kwargs))?;
     if target == "float32" {
         Ok(FloatArray::F32(
             c.cast_into::<PyArrayDyn<f32>>()?.try_readonly()?,
@@ -151,9 +150,8 @@ pub fn index_array<'py>(obj: &Bound<'py, PyAny>, what: &str) -> PyResult<IndexAr
     let np = py.import("numpy")?;
     let kwargs = pyo3::types::PyDict::new(py);
     kwargs.set_item("dtype", np.getattr(target)?)?;
-    let c = np
-        .getattr("ascontiguousarray")?
-        .call((&arr,), Some(&kwargs))?;
+    kwargs.set_item("order", "C")?;
+    let c = np.getattr("asarray")?.call((&arr,), Some(&kwargs))?;
     Ok(if target == "int64" {
         IndexArray::I64(c.cast_into::<PyArrayDyn<i64>>()?.try_readonly()?)
     } else {
@@ -224,9 +222,8 @@ pub fn end_arg<'py>(
     let np = py.import("numpy")?;
     let kwargs = pyo3::types::PyDict::new(py);
     kwargs.set_item("dtype", np.getattr("float32")?)?;
-    let c = np
-        .getattr("ascontiguousarray")?
-        .call((broadcast,), Some(&kwargs))?;
+    kwargs.set_item("order", "C")?;
+    let c = np.getattr("asarray")?.call((broadcast,), Some(&kwargs))?;
     Ok(EndArg::PerRay(
         c.cast_into::<PyArrayDyn<f32>>()?.try_readonly()?,
     ))
