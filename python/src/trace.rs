@@ -91,9 +91,14 @@ impl Rays<'_> {
     fn ray(&self, i: usize, invalid: &FirstInvalid) -> Ray {
         let (o, d, tmin, tmax) = self.parts(i);
         let ray = Ray::new(o, d, tmin, tmax);
-        // `is_valid` also refuses a legitimate [+inf, -inf] interval (the
-        // mark `Ray::new` leaves); ask the parts themselves before noting.
-        if !ray.is_valid() && Ray::invalid_reason(o, d, tmin, tmax).is_some() {
+        // `Ray::new` marks a ray it cannot trace with the interval
+        // [+inf, -inf] (checking that costs two compares, where
+        // `Ray::is_valid` would check the parts again); a caller may give
+        // that interval too, so the parts decide.
+        if ray.tmin == f32::INFINITY
+            && ray.tmax == f32::NEG_INFINITY
+            && Ray::invalid_reason(o, d, tmin, tmax).is_some()
+        {
             invalid.note(i);
         }
         ray
@@ -197,12 +202,21 @@ impl Work<'_> {
     }
 }
 
-/// The unit geometric normal `(b-a)×(c-a)` of a triangle, computed in f64
-/// so that tiny triangles keep their normal.
+/// The unit geometric normal `(b-a)×(c-a)` of a triangle: in f32 as the
+/// core's renderers compute it ([`Triangle::normal`]), and again in f64
+/// where the f32 cross product's squared length leaves the normal range
+/// (triangles smaller than about 1e-15 or larger than 1e15 units), so that
+/// every triangle that can be hit has a unit normal.
 #[inline]
 pub fn unit_normal(t: &Triangle) -> Vec3 {
-    let (a, b, c) = (t.a.as_dvec3(), t.b.as_dvec3(), t.c.as_dvec3());
-    (b - a).cross(c - a).normalize_or_zero().as_vec3()
+    let n = t.normal();
+    let l2 = n.length_squared();
+    if (1e-30..=1e30).contains(&l2) {
+        n / l2.sqrt()
+    } else {
+        let (a, b, c) = (t.a.as_dvec3(), t.b.as_dvec3(), t.c.as_dvec3());
+        (b - a).cross(c - a).normalize_or_zero().as_vec3()
+    }
 }
 
 /// Where a closest-hit query answers: one slot per ray.
