@@ -6,7 +6,7 @@ Distances ``t`` are in units of each ray's direction (not normalized).
 """
 
 import os
-from typing import Literal, Optional, Union, overload
+from typing import Literal, Optional, Union, final, overload
 
 import numpy as np
 import numpy.typing as npt
@@ -20,17 +20,20 @@ TRAVERSALS: tuple[str, ...]
 #: Builder names: sah, hybrid.
 BUILDERS: tuple[str, ...]
 __version__: str
+__all__ = ["Accelerator", "BUILDERS", "INVALID_ID", "STRUCTURES", "Scene", "TRAVERSALS", "__version__"]
 
-#: A ray interval end: a number, or an array broadcasting to the leading shape.
-End = Union[float, npt.ArrayLike, None]
-InvalidRays = Literal["raise", "miss"]
+#: A ray interval end: a number, or an array broadcasting to the leading
+#: shape; None for the default (tmin 0, tmax inf).
+_End = Union[float, npt.ArrayLike, None]
+_InvalidRays = Literal["raise", "miss"]
 
+@final
 class Scene:
     """A triangle mesh, kept in float32. Triangle i is row i of `triangles`."""
 
     @staticmethod
     def from_arrays(
-        vertices: npt.ArrayLike, triangles: npt.ArrayLike, name: str = "arrays"
+        vertices: npt.ArrayLike, triangles: npt.ArrayLike, name: Optional[str] = None
     ) -> Scene:
         """vertices (N, 3) float32/float64; triangles (M, 3) any integer dtype, in 0..N."""
     @staticmethod
@@ -56,18 +59,19 @@ class Scene:
         """(2, 3) float32: min row, max row."""
     def __len__(self) -> int: ...
 
+@final
 class Accelerator:
     """One structure and traversal built over a Scene, answering ray queries."""
 
-    def __init__(
-        self,
+    def __new__(
+        cls,
         scene: Scene,
         structure: str = "bvh",
         traversal: Optional[str] = None,
         builder: str = "sah",
         max_leaf_size: int = 8,
         threads: Optional[int] = None,
-    ) -> None: ...
+    ) -> Accelerator: ...
     @property
     def structure(self) -> str: ...
     @property
@@ -83,11 +87,11 @@ class Accelerator:
     def cast_rays(
         self,
         rays: npt.ArrayLike,
-        tmin: End = 0.0,
-        tmax: End = float("inf"),
+        tmin: _End = None,
+        tmax: _End = None,
         threads: Optional[int] = None,
         counters: bool = False,
-        invalid_rays: InvalidRays = "raise",
+        invalid_rays: _InvalidRays = "raise",
     ) -> dict[str, np.ndarray]:
         """Closest hits of (..., 6) rays: t_hit (...) float32 (inf on a miss),
         primitive_ids (...) uint32 (INVALID_ID on a miss), geometry_ids (...)
@@ -97,52 +101,52 @@ class Accelerator:
     def test_occlusions(
         self,
         rays: npt.ArrayLike,
-        tmin: End = 0.0,
-        tmax: End = float("inf"),
+        tmin: _End = None,
+        tmax: _End = None,
         threads: Optional[int] = None,
         counters: Literal[False] = False,
-        invalid_rays: InvalidRays = "raise",
+        invalid_rays: _InvalidRays = "raise",
     ) -> npt.NDArray[np.bool_]: ...
     @overload
     def test_occlusions(
         self,
         rays: npt.ArrayLike,
-        tmin: End = 0.0,
-        tmax: End = float("inf"),
+        tmin: _End = None,
+        tmax: _End = None,
         threads: Optional[int] = None,
         *,
         counters: Literal[True],
-        invalid_rays: InvalidRays = "raise",
+        invalid_rays: _InvalidRays = "raise",
     ) -> dict[str, np.ndarray]: ...
     @overload
     def count_intersections(
         self,
         rays: npt.ArrayLike,
-        tmin: End = 0.0,
-        tmax: End = float("inf"),
+        tmin: _End = None,
+        tmax: _End = None,
         threads: Optional[int] = None,
         counters: Literal[False] = False,
-        invalid_rays: InvalidRays = "raise",
+        invalid_rays: _InvalidRays = "raise",
     ) -> npt.NDArray[np.uint32]: ...
     @overload
     def count_intersections(
         self,
         rays: npt.ArrayLike,
-        tmin: End = 0.0,
-        tmax: End = float("inf"),
+        tmin: _End = None,
+        tmax: _End = None,
         threads: Optional[int] = None,
         *,
         counters: Literal[True],
-        invalid_rays: InvalidRays = "raise",
+        invalid_rays: _InvalidRays = "raise",
     ) -> dict[str, np.ndarray]: ...
     def list_intersections(
         self,
         rays: npt.ArrayLike,
-        tmin: End = 0.0,
-        tmax: End = float("inf"),
+        tmin: _End = None,
+        tmax: _End = None,
         threads: Optional[int] = None,
         counters: bool = False,
-        invalid_rays: InvalidRays = "raise",
+        invalid_rays: _InvalidRays = "raise",
         max_hits: Optional[int] = None,
     ) -> dict[str, np.ndarray]:
         """Every hit, nearest first: ray_splits (R+1,) int64, ray_ids (K,)
@@ -152,8 +156,8 @@ class Accelerator:
     def _rust_batch(
         self,
         rays: npt.ArrayLike,
-        tmin: End = 0.0,
-        tmax: End = float("inf"),
+        tmin: _End = None,
+        tmax: _End = None,
         threads: Optional[int] = None,
     ) -> tuple[float, float, int]:
         """Benchmarks: wall and CPU seconds of the core's own batch call on these rays, and hits."""

@@ -15,7 +15,7 @@ runs trimesh's own parity test over these methods): any object with
 
 from __future__ import annotations
 
-from typing import Any, Optional
+from typing import Any, Literal, Optional
 
 import numpy as np
 
@@ -48,7 +48,7 @@ class RayMeshIntersector:
         traversal: Optional[str] = None,
         builder: str = "sah",
         threads: Optional[int] = None,
-        invalid_rays: str = "miss",
+        invalid_rays: Literal["raise", "miss"] = "miss",
     ) -> None:
         for attribute in ("vertices", "faces"):
             if not hasattr(mesh, attribute):
@@ -57,9 +57,9 @@ class RayMeshIntersector:
                     f"{type(mesh).__name__} has no '{attribute}'"
                 )
         self.mesh = mesh
-        self._options = dict(structure=structure, traversal=traversal, builder=builder)
+        self._structure, self._traversal, self._builder = structure, traversal, builder
         self._threads = threads
-        self._invalid = invalid_rays
+        self._invalid: Literal["raise", "miss"] = invalid_rays
         self._accel: Optional[Accelerator] = None
         self._key: Any = None
 
@@ -78,7 +78,13 @@ class RayMeshIntersector:
             scene = Scene.from_arrays(
                 np.asarray(self.mesh.vertices), np.asarray(self.mesh.faces), name="trimesh"
             )
-            self._accel = Accelerator(scene, threads=self._threads, **self._options)
+            self._accel = Accelerator(
+                scene,
+                self._structure,
+                traversal=self._traversal,
+                builder=self._builder,
+                threads=self._threads,
+            )
             self._key = key
         return self._accel
 
@@ -208,7 +214,8 @@ class RayMeshIntersector:
         return contains_points(self, np.asarray(points, dtype=np.float64))
 
     def __repr__(self) -> str:
-        return f"RayMeshIntersector({type(self.mesh).__name__}, {self._options})"
+        name = self._structure + (f"/{self._traversal}" if self._traversal else "")
+        return f"RayMeshIntersector({type(self.mesh).__name__}, {name!r}, builder={self._builder!r})"
 
 
 def _no_kwargs(method: str, kwargs: dict) -> None:

@@ -197,8 +197,6 @@ fn indices(t: &IndexArray, vertices: usize) -> PyResult<Vec<[u32; 3]>> {
 
 #[pymethods]
 impl PyScene {
-    /// Scene.from_arrays(vertices, triangles, name="arrays")
-    ///
     /// A scene from numpy arrays.
     ///
     /// Args:
@@ -208,7 +206,7 @@ impl PyScene {
     ///     triangles: (M, 3) integer array (any integer dtype): the vertex
     ///         indices a, b, c of each triangle, each in 0..N. Hit
     ///         barycentrics (u, v) weigh b and c.
-    ///     name: a name for reports and repr.
+    ///     name: a name for reports and repr (None: ``"arrays"``).
     ///
     /// Raises:
     ///     TypeError: a non-real `vertices` or non-integer `triangles` dtype.
@@ -217,12 +215,13 @@ impl PyScene {
     ///     MemoryError: more triangles than the memory available can build
     ///         (``RAYTREE_MEMORY_LIMIT`` lowers the limit).
     #[staticmethod]
-    #[pyo3(signature = (vertices, triangles, name = "arrays".to_string()))]
+    #[pyo3(signature = (vertices, triangles, name = None))]
     fn from_arrays(
         vertices: &Bound<'_, PyAny>,
         triangles: &Bound<'_, PyAny>,
-        name: String,
+        name: Option<String>,
     ) -> PyResult<PyScene> {
+        let name = name.unwrap_or_else(|| "arrays".into());
         let v = float_array(vertices, "vertices")?;
         let t = index_array(triangles, "triangles")?;
         let positions = positions(&v)?;
@@ -230,8 +229,6 @@ impl PyScene {
         PyScene::checked(Mesh { positions, indices }, name)
     }
 
-    /// Scene.load(path)
-    ///
     /// A scene from a mesh file: every format the core reads (OBJ and PLY;
     /// polygons fan-triangulated in file order).
     ///
@@ -249,8 +246,6 @@ impl PyScene {
         Ok(PyScene { scene })
     }
 
-    /// Scene.builtin(spec)
-    ///
     /// One of raytree's procedural scenes by name, optionally with a size in
     /// triangles: ``"chess"``, ``"chess:20000"``, ``"hairball:1M"``,
     /// ``"atrium"``, ``"forest"``, ``"plant"``. Deterministic.
@@ -340,7 +335,33 @@ fn parse_builder(name: &str) -> PyResult<Builder> {
         })
 }
 
-/// A structure and traversal built over a scene, answering ray queries.
+/// A structure and traversal built over a scene, answering ray queries:
+/// ``cast_rays`` (closest hit), ``test_occlusions`` (any hit),
+/// ``count_intersections`` and ``list_intersections`` (every hit).
+///
+/// ``Accelerator(scene, structure="bvh", traversal=None, builder="sah",
+/// max_leaf_size=8, threads=None)`` builds the canonical BVH over `scene` and derives `structure` from it.
+///
+/// Args:
+///     scene: a `Scene`.
+///     structure: ``"bvh"`` (52-byte binary nodes), ``"dst"``,
+///         ``"dst-similar"`` (dual-split trees), ``"bih"``, ``"htree"``,
+///         ``"cbvh"`` or ``"brute"`` (every triangle: the oracle); or
+///         ``"bvh/<traversal>"``. See `raytree.STRUCTURES`.
+///     traversal: for ``"bvh"`` only: ``"stack"`` (the default),
+///         ``"implicit-a"``, ``"implicit-b"``, ``"sparse"``,
+///         ``"hapala"``, ``"laine-0"``, ``"laine-1"``, ``"laine-2"``,
+///         ``"laine-4"``, ``"laine-8"``. See `raytree.TRAVERSALS`.
+///     builder: ``"sah"`` (binned SAH) or ``"hybrid"`` (SAH for the top
+///         8 levels, then median splits: the stackless paper's tree).
+///     max_leaf_size: most triangles per BVH leaf, 1..=255.
+///     threads: worker threads for the build (None or 0: all cores).
+///
+/// Raises:
+///     TypeError: `scene` is not a Scene.
+///     ValueError: an unknown name (the message lists the known ones), a
+///         traversal on a structure that has its own, a leaf size out of
+///         range, or a tree the layout cannot encode.
 #[pyclass(frozen, module = "raytree", name = "Accelerator")]
 pub struct PyAccelerator {
     built: Built,
@@ -497,30 +518,6 @@ fn slice_mut<'a, T: numpy::Element>(
 
 #[pymethods]
 impl PyAccelerator {
-    /// Accelerator(scene, structure="bvh", traversal=None, builder="sah", max_leaf_size=8, threads=None)
-    ///
-    /// Builds the canonical BVH over `scene` and derives `structure` from it.
-    ///
-    /// Args:
-    ///     scene: a `Scene`.
-    ///     structure: ``"bvh"`` (52-byte binary nodes), ``"dst"``,
-    ///         ``"dst-similar"`` (dual-split trees), ``"bih"``, ``"htree"``,
-    ///         ``"cbvh"`` or ``"brute"`` (every triangle: the oracle); or
-    ///         ``"bvh/<traversal>"``. See `raytree.STRUCTURES`.
-    ///     traversal: for ``"bvh"`` only: ``"stack"`` (the default),
-    ///         ``"implicit-a"``, ``"implicit-b"``, ``"sparse"``,
-    ///         ``"hapala"``, ``"laine-0"``, ``"laine-1"``, ``"laine-2"``,
-    ///         ``"laine-4"``, ``"laine-8"``. See `raytree.TRAVERSALS`.
-    ///     builder: ``"sah"`` (binned SAH) or ``"hybrid"`` (SAH for the top
-    ///         8 levels, then median splits: the stackless paper's tree).
-    ///     max_leaf_size: most triangles per BVH leaf, 1..=255.
-    ///     threads: worker threads for the build (None or 0: all cores).
-    ///
-    /// Raises:
-    ///     TypeError: `scene` is not a Scene.
-    ///     ValueError: an unknown name (the message lists the known ones), a
-    ///         traversal on a structure that has its own, a leaf size out of
-    ///         range, or a tree the layout cannot encode.
     #[new]
     #[pyo3(signature = (scene, structure = "bvh", traversal = None, builder = "sah", max_leaf_size = 8, threads = None))]
     fn new(
@@ -611,8 +608,6 @@ impl PyAccelerator {
         self.scene.clone_ref(py)
     }
 
-    /// info() -> dict
-    ///
     /// What the structure reports about itself, as plain Python values:
     /// ``structure``, ``traversal`` (None but for bvh), ``layout``,
     /// ``bytes`` (= ``node_bytes`` + ``index_bytes``), ``reserved_bytes``
@@ -646,8 +641,6 @@ impl PyAccelerator {
         )
     }
 
-    /// cast_rays(rays, tmin=0.0, tmax=inf, threads=None, counters=False, invalid_rays="raise") -> dict
-    ///
     /// The closest hit of every ray, like Open3D's
     /// ``RaycastingScene.cast_rays``.
     ///
@@ -659,8 +652,9 @@ impl PyAccelerator {
     ///         place (float64 rounded to float32 ray by ray); anything else
     ///         is converted first.
     ///     tmin, tmax: the interval [tmin, tmax] searched along each ray
-    ///         (both inclusive): a number, or an array that broadcasts to
-    ///         the leading shape.
+    ///         (both inclusive, in units of the direction): a number, or an
+    ///         array that broadcasts to the leading shape; None for 0 and
+    ///         inf. Rounded to float32.
     ///     threads: worker threads (None or 0: all logical cores). The GIL
     ///         is released while tracing; answers do not depend on it.
     ///     counters: also return per-ray work counters.
@@ -742,8 +736,6 @@ impl PyAccelerator {
         Ok(d)
     }
 
-    /// test_occlusions(rays, tmin=0.0, tmax=inf, threads=None, counters=False, invalid_rays="raise")
-    ///
     /// Whether each ray hits anything within [tmin, tmax] (an any-hit
     /// query: the first hit found ends the ray's search), like Open3D's
     /// ``RaycastingScene.test_occlusions``. Arguments as `cast_rays`.
@@ -794,8 +786,6 @@ impl PyAccelerator {
         }
     }
 
-    /// count_intersections(rays, tmin=0.0, tmax=inf, threads=None, counters=False, invalid_rays="raise")
-    ///
     /// The number of triangles each ray meets within [tmin, tmax] (every
     /// hit, each triangle once; a ray through a shared edge meets both
     /// triangles), like Open3D's ``RaycastingScene.count_intersections``.
@@ -847,8 +837,6 @@ impl PyAccelerator {
         }
     }
 
-    /// list_intersections(rays, tmin=0.0, tmax=inf, threads=None, counters=False, invalid_rays="raise", max_hits=None) -> dict
-    ///
     /// Every hit along every ray within [tmin, tmax], nearest first (equal
     /// distances by the smaller triangle index), in flat arrays, like
     /// Open3D's ``RaycastingScene.list_intersections``. Arguments as
@@ -949,8 +937,6 @@ impl PyAccelerator {
         Ok(d)
     }
 
-    /// _rust_batch(rays, tmin=0.0, tmax=inf, threads=None) -> (seconds, cpu_seconds, hits)
-    ///
     /// For benchmarks: builds the rays into the core's ``Vec<Ray>``
     /// (untimed), then times the core's own batch call
     /// (``Tracer::intersect``, closest hits) over them on the same pool, with
