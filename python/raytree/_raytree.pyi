@@ -6,14 +6,14 @@ Distances ``t`` are in units of each ray's direction (not normalized).
 """
 
 import os
-from typing import Literal, Optional, Union, final, overload
+from typing import Literal, Optional, Sequence, Union, final, overload
 
 import numpy as np
 import numpy.typing as npt
 
 #: primitive_ids / geometry_ids of a miss: 0xFFFFFFFF (as Open3D's).
 INVALID_ID: int
-#: Structure names: bvh, dst, dst-similar, bih, htree, cbvh, brute.
+#: Structure names: bvh, dst, dst-similar, bih, htree, cbvh, bvh4, bvh8, brute.
 STRUCTURES: tuple[str, ...]
 #: Traversal names (for "bvh"): stack, implicit-a, implicit-b, sparse, hapala, laine-0/1/2/4/8.
 TRAVERSALS: tuple[str, ...]
@@ -37,8 +37,11 @@ class Scene:
     ) -> Scene:
         """vertices (N, 3) float32/float64; triangles (M, 3) any integer dtype, in 0..N."""
     @staticmethod
-    def load(path: Union[str, os.PathLike[str]]) -> Scene:
-        """An OBJ or PLY file (every format the core reads)."""
+    def load(
+        path: Union[str, os.PathLike[str], Sequence[Union[str, os.PathLike[str]]]],
+        gltf_scene: Optional[int] = None,
+    ) -> Scene:
+        """Mesh files (OBJ, PLY, STL, glTF, GLB): one, or a list made one scene."""
     @staticmethod
     def builtin(spec: str) -> Scene:
         """A procedural scene: "chess", "chess:20000", "hairball:1M", "atrium", "forest", "plant"."""
@@ -57,6 +60,13 @@ class Scene:
     @property
     def bounds(self) -> npt.NDArray[np.float32]:
         """(2, 3) float32: min row, max row."""
+    @property
+    def geometries(self) -> list[dict]:
+        """One dict per geometry: name, first_triangle, triangle_count."""
+    def geometry_of(
+        self, primitive_ids: npt.ArrayLike
+    ) -> tuple[npt.NDArray[np.uint32], npt.NDArray[np.uint32]]:
+        """(geometry_ids, local_ids), uint32 of the input's shape; INVALID_ID for misses."""
     def __len__(self) -> int: ...
 
 @final

@@ -29,13 +29,13 @@ use raytree::bvh::{BuildOptions, BuildStats, Builder, Bvh};
 use raytree::error::Error;
 use raytree::geometry::{Triangle, COORDINATE_LIMIT};
 use raytree::prelude::Vec3;
-use raytree::scene::{memory, Camera, Mesh, Scene};
+use raytree::scene::{memory, Camera, LoadOptions, Mesh, Scene};
 use raytree::structures::{Built, StructureInfo, StructureKind, TraversalKind};
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, OnceLock};
 use trace::{
-    Closest, ClosestOut, CountHits, FirstInvalid, ListHits, ListOut, Occluded, PerRayOut, Rays,
-    RustBatch, Work, INVALID_ID,
+    Closest, ClosestOut, CountHits, FirstInvalid, Geometries, ListHits, ListOut, Occluded,
+    PerRayOut, Rays, RustBatch, Work, INVALID_ID,
 };
 
 /// A core error as a Python exception: a missing file is
@@ -226,23 +226,49 @@ impl PyScene {
         let t = index_array(triangles, "triangles")?;
         let positions = positions(&v)?;
         let indices = indices(&t, positions.len())?;
-        PyScene::checked(Mesh { positions, indices }, name)
+        let mesh = Mesh {
+            positions,
+            indices,
+            geometries: Vec::new(),
+        };
+        PyScene::checked(mesh, name)
     }
 
-    /// A scene from a mesh file: every format the core reads (OBJ and PLY;
-    /// polygons fan-triangulated in file order).
+    /// A scene from mesh files: every format the core reads (OBJ, PLY,
+    /// STL, glTF 2.0 and GLB; polygons fan-triangulated in file order).
     ///
     /// Args:
-    ///     path: str or os.PathLike.
+    ///     path: str or os.PathLike, or a list of them: one scene of all
+    ///         the files, file k's triangles numbered after those of the
+    ///         files before it.
+    ///     gltf_scene: the glTF scene to load by index (None: the file's
+    ///         default scene, or its first).
+    ///
+    /// Each file is a geometry (each triangle primitive instance of a glTF
+    /// scene, each solid of an ASCII STL file): see `geometries`.
     ///
     /// Raises:
-    ///     FileNotFoundError / OSError: the file cannot be read.
-    ///     ValueError: a malformed file (the message names the line) or an
-    ///         unknown format.
+    ///     FileNotFoundError / OSError: a file cannot be read.
+    ///     ValueError: a malformed file (the message names the file and the
+    ///         line or element) or an unknown format.
     ///     MemoryError: more triangles than the memory available can build.
     #[staticmethod]
-    fn load(path: std::path::PathBuf) -> PyResult<PyScene> {
-        let scene = Scene::load(&path).map_err(|e| py_err(e, true))?;
+    #[pyo3(signature = (path, gltf_scene = None))]
+    fn load(path: &Bound<'_, PyAny>, gltf_scene: Option<usize>) -> PyResult<PyScene> {
+        let paths: Vec<std::path::PathBuf> = match path.extract::<std::path::PathBuf>() {
+            Ok(p) => vec![p],
+            Err(_) => path.extract().map_err(|_| {
+                PyTypeError::new_err(format!(
+                    "path must be a str or os.PathLike, or a list of them, not {}",
+                    path.get_type().name().map_or("?".into(), |n| n.to_string())
+                ))
+            })?,
+        };
+        if paths.is_empty() {
+            return Err(PyValueError::new_err("no mesh files given"));
+        }
+        let options = LoadOptions { gltf_scene };
+        let scene = Scene::load_many(&paths, &options).map_err(|e| py_err(e, true))?;
         Ok(PyScene { scene })
     }
 
@@ -311,19 +337,81 @@ impl PyScene {
             .map(|a| a.to_dyn().clone())
     }
 
+    /// The geometries, in order: one dict per geometry with ``name`` (the
+    /// file, or the glTF node, mesh and primitive), ``first_triangle`` and
+    /// ``triangle_count``: geometry g's triangles are rows
+    /// ``first_triangle:first_triangle + triangle_count`` of `triangles`.
+    #[getter]
+    fn geometries<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
+        self.scene
+            .mesh
+            .geometries
+            .iter()
+            .map(|g| {
+                let d = PyDict::new(py);
+                d.set_item("name", &g.name)?;
+                d.set_item("first_triangle", g.first_triangle)?;
+                d.set_item("triangle_count", g.triangle_count)?;
+                Ok(d)
+            })
+            .collect()
+    }
+
+    /// geometry_of(primitive_ids) -> (geometry_ids, local_ids)
+    ///
+    /// The geometry of each triangle index (as `cast_rays` returns them)
+    /// and its index within that geometry: two uint32 arrays of the input's
+    /// shape, ``INVALID_ID`` for ``INVALID_ID`` and any index past the last
+    /// triangle.
+    fn geometry_of<'py>(
+        &self,
+        py: Python<'py>,
+        primitive_ids: &Bound<'py, PyAny>,
+    ) -> PyResult<(U32Array<'py>, U32Array<'py>)> {
+        let ids = index_array(primitive_ids, "primitive_ids")?;
+        let wide: Vec<i128> = match &ids {
+            IndexArray::I64(a) => a.as_array().iter().map(|&v| v as i128).collect(),
+            IndexArray::U64(a) => a.as_array().iter().map(|&v| v as i128).collect(),
+        };
+        let mesh = &self.scene.mesh;
+        let (geometry, local): (Vec<u32>, Vec<u32>) = wide
+            .iter()
+            .map(|&id| {
+                u32::try_from(id)
+                    .ok()
+                    .and_then(|id| mesh.geometry_of(id))
+                    .unwrap_or((INVALID_ID, INVALID_ID))
+            })
+            .unzip();
+        let shape = ids.shape().to_vec();
+        Ok((
+            PyArray::from_vec(py, geometry).reshape(shape.clone())?,
+            PyArray::from_vec(py, local).reshape(shape)?,
+        ))
+    }
+
     fn __len__(&self) -> usize {
         self.scene.mesh.triangle_count()
     }
 
     fn __repr__(&self) -> String {
+        let geometries = self.scene.mesh.geometry_count();
         format!(
-            "Scene({:?}, {} triangles, {} vertices)",
+            "Scene({:?}, {} triangles, {} vertices{})",
             self.scene.name,
             self.scene.mesh.triangle_count(),
-            self.scene.mesh.positions.len()
+            self.scene.mesh.positions.len(),
+            if geometries > 1 {
+                format!(", {geometries} geometries")
+            } else {
+                String::new()
+            }
         )
     }
 }
+
+/// A numpy uint32 array of any shape.
+type U32Array<'py> = Bound<'py, PyArrayDyn<u32>>;
 
 /// `"sah"` or `"hybrid"`.
 fn parse_builder(name: &str) -> PyResult<Builder> {
@@ -346,7 +434,8 @@ fn parse_builder(name: &str) -> PyResult<Builder> {
 ///     scene: a `Scene`.
 ///     structure: ``"bvh"`` (52-byte binary nodes), ``"dst"``,
 ///         ``"dst-similar"`` (dual-split trees), ``"bih"``, ``"htree"``,
-///         ``"cbvh"`` or ``"brute"`` (every triangle: the oracle); or
+///         ``"cbvh"``, ``"bvh4"``, ``"bvh8"`` (4- and 8-wide BVHs) or
+///         ``"brute"`` (every triangle: the oracle); or
 ///         ``"bvh/<traversal>"``. See `raytree.STRUCTURES`.
 ///     traversal: for ``"bvh"`` only: ``"stack"`` (the default),
 ///         ``"implicit-a"``, ``"implicit-b"``, ``"sparse"``,
@@ -368,6 +457,7 @@ pub struct PyAccelerator {
     info: StructureInfo,
     bvh: BuildStats,
     triangles: Arc<[Triangle]>,
+    geometries: Geometries,
     scene: Py<PyScene>,
     builder: Builder,
 }
@@ -556,6 +646,7 @@ impl PyAccelerator {
         }
         let pool = pool(threads)?;
         let triangles = scene.get().scene.triangles.clone();
+        let geometries = Geometries::of(&scene.get().scene.mesh);
         let options = BuildOptions::new(builder).with_max_leaf_size(max_leaf_size as usize);
         let tris = triangles.clone();
         let (bvh, built) = py.detach(move || {
@@ -571,6 +662,7 @@ impl PyAccelerator {
             info,
             bvh,
             triangles,
+            geometries,
             scene: scene.clone().unbind(),
             builder,
         })
@@ -667,9 +759,11 @@ impl PyAccelerator {
     ///     dict of arrays with the rays' leading shape (...):
     ///     ``t_hit`` (..., float32): distance to the hit, in units of the
     ///     direction; inf on a miss. ``primitive_ids`` (..., uint32): the
-    ///     triangle's row in the scene's triangles, ``raytree.INVALID_ID``
-    ///     (0xFFFFFFFF) on a miss. ``geometry_ids`` (..., uint32): 0 on a
-    ///     hit (one geometry), INVALID_ID on a miss. ``primitive_uvs``
+    ///     triangle's row in the scene's triangles (numbered over all its
+    ///     geometries), ``raytree.INVALID_ID`` (0xFFFFFFFF) on a miss.
+    ///     ``geometry_ids`` (..., uint32): the geometry of the triangle hit
+    ///     (0 for a scene of one geometry; see `Scene.geometries` and
+    ///     `Scene.geometry_of`), INVALID_ID on a miss. ``primitive_uvs``
     ///     (..., 2) float32: barycentrics (u, v) of the hit point
     ///     (1-u-v)·a + u·b + v·c; zeros on a miss. ``primitive_normals``
     ///     (..., 3) float32: the unit geometric normal (b-a)×(c-a)/|...|
@@ -718,6 +812,7 @@ impl PyAccelerator {
                 rays: q.rays()?,
                 out,
                 triangles: &self.triangles,
+                geometries: &self.geometries,
                 invalid: &invalid,
             };
             let (built, pool) = (&self.built, &q.pool);
@@ -849,7 +944,7 @@ impl PyAccelerator {
     ///     ``r`` are entries ``ray_splits[r]:ray_splits[r+1]`` of the flat
     ///     arrays; ``ray_ids`` (K,) int64: the flat ray of each hit;
     ///     ``t_hit`` (K,) float32; ``primitive_ids`` (K,) uint32;
-    ///     ``geometry_ids`` (K,) uint32 (0); ``primitive_uvs`` (K, 2)
+    ///     ``geometry_ids`` (K,) uint32; ``primitive_uvs`` (K, 2)
     ///     float32; ``primitive_normals`` (K, 3) float32: as in
     ///     `cast_rays`. With ``counters=True`` also ``nodes``,
     ///     ``plane_tests``, ``triangle_tests`` with the leading shape (...),
@@ -920,8 +1015,10 @@ impl PyAccelerator {
                 ray_ids: slice_mut(&mut rw)?,
             };
             let splits = slice_mut(&mut sw)?;
-            let (pool, triangles) = (&q.pool, &self.triangles);
-            py.detach(|| pool.install(|| trace::fill_lists(&chunks, out, splits, triangles)));
+            let (pool, triangles, geometries) = (&q.pool, &self.triangles, &self.geometries);
+            py.detach(|| {
+                pool.install(|| trace::fill_lists(&chunks, out, splits, triangles, geometries))
+            });
         }
         let d = PyDict::new(py);
         d.set_item("ray_splits", splits)?;

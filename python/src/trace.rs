@@ -219,13 +219,39 @@ pub fn unit_normal(t: &Triangle) -> Vec3 {
     }
 }
 
+/// The scene's geometries as hits need them: the first triangle of each
+/// (consecutive ranges covering every triangle, as
+/// [`raytree::scene::Mesh::geometries`]).
+pub struct Geometries {
+    starts: Vec<u32>,
+}
+
+impl Geometries {
+    /// The geometries of `mesh`.
+    pub fn of(mesh: &raytree::scene::Mesh) -> Geometries {
+        Geometries {
+            starts: mesh.geometries.iter().map(|g| g.first_triangle).collect(),
+        }
+    }
+
+    /// The geometry of triangle `prim` (a hit's: always in range).
+    #[inline(always)]
+    pub fn of_triangle(&self, prim: u32) -> u32 {
+        if self.starts.len() <= 1 {
+            0
+        } else {
+            (self.starts.partition_point(|&s| s <= prim) - 1) as u32
+        }
+    }
+}
+
 /// Where a closest-hit query answers: one slot per ray.
 pub struct ClosestOut<'a> {
     /// Hit distance, `+inf` on a miss.
     pub t: &'a mut [f32],
     /// Triangle index, [`INVALID_ID`] on a miss.
     pub prim: &'a mut [u32],
-    /// 0 on a hit (the scene is one geometry), [`INVALID_ID`] on a miss.
+    /// The geometry hit, [`INVALID_ID`] on a miss.
     pub geom: &'a mut [u32],
     /// Barycentrics `u`, `v` (two per ray), zeros on a miss.
     pub uv: &'a mut [f32],
@@ -266,12 +292,12 @@ impl Split for ClosestOut<'_> {
 
 impl ClosestOut<'_> {
     #[inline(always)]
-    fn set(&mut self, j: usize, hit: Option<Hit>, triangles: &[Triangle]) {
+    fn set(&mut self, j: usize, hit: Option<Hit>, triangles: &[Triangle], geometries: &Geometries) {
         match hit {
             Some(h) => {
                 self.t[j] = h.t;
                 self.prim[j] = h.prim;
-                self.geom[j] = 0;
+                self.geom[j] = geometries.of_triangle(h.prim);
                 self.uv[2 * j] = h.u;
                 self.uv[2 * j + 1] = h.v;
                 let n = unit_normal(&triangles[h.prim as usize]);
@@ -296,6 +322,8 @@ pub struct Closest<'a> {
     pub out: ClosestOut<'a>,
     /// The scene's triangles (for the normals).
     pub triangles: &'a [Triangle],
+    /// The scene's geometries (for the geometry ids).
+    pub geometries: &'a Geometries,
     /// Receives the first ray that cannot be traced.
     pub invalid: &'a FirstInvalid,
 }
@@ -307,6 +335,7 @@ impl WithAccel for Closest<'_> {
             rays,
             out,
             triangles,
+            geometries,
             invalid,
         } = self;
         let n = rays.len();
@@ -325,7 +354,7 @@ impl WithAccel for Closest<'_> {
                             hit
                         }
                     };
-                    o.set(j, hit, triangles);
+                    o.set(j, hit, triangles, geometries);
                 }
             });
     }
@@ -515,7 +544,7 @@ pub struct ListOut<'a> {
     pub t: &'a mut [f32],
     /// Triangle indices.
     pub prim: &'a mut [u32],
-    /// Geometry ids (0: the scene is one geometry).
+    /// Geometry ids.
     pub geom: &'a mut [u32],
     /// Barycentrics `u`, `v`, two per hit.
     pub uv: &'a mut [f32],
@@ -556,7 +585,13 @@ impl Split for ListOut<'_> {
 
 /// Writes the chunks' hits into `out` and the per-ray offsets into
 /// `splits` (`rays + 1` entries, the first 0).
-pub fn fill_lists(chunks: &[ChunkHits], out: ListOut, splits: &mut [i64], triangles: &[Triangle]) {
+pub fn fill_lists(
+    chunks: &[ChunkHits],
+    out: ListOut,
+    splits: &mut [i64],
+    triangles: &[Triangle],
+    geometries: &Geometries,
+) {
     let mut total = 0i64;
     splits[0] = 0;
     let mut k = 1;
@@ -580,7 +615,7 @@ pub fn fill_lists(chunks: &[ChunkHits], out: ListOut, splits: &mut [i64], triang
                     let hit = chunk.hits[h];
                     o.t[h] = hit.t;
                     o.prim[h] = hit.prim;
-                    o.geom[h] = 0;
+                    o.geom[h] = geometries.of_triangle(hit.prim);
                     o.uv[2 * h] = hit.u;
                     o.uv[2 * h + 1] = hit.v;
                     let n = unit_normal(&triangles[hit.prim as usize]);

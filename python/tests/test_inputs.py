@@ -184,8 +184,8 @@ def test_ray_errors(accel, rays):
 
 
 def test_build_errors(chess):
-    with pytest.raises(ValueError, match=r"unknown structure 'bvh8' \(known: bvh, dst"):
-        raytree.Accelerator(chess, "bvh8")
+    with pytest.raises(ValueError, match=r"unknown structure 'bvh16' \(known: bvh, dst"):
+        raytree.Accelerator(chess, "bvh16")
     with pytest.raises(ValueError, match=r"unknown traversal 'laine-3' \(known: stack"):
         raytree.Accelerator(chess, "bvh/laine-3")
     with pytest.raises(ValueError, match="applies to the 'bvh' structure only"):
@@ -260,6 +260,28 @@ def test_scene_files(tmp_path):
     scene = raytree.Scene.load(obj)
     assert scene.triangle_count == 2 and scene.name.endswith("quad.obj")
     assert raytree.Scene.load(str(obj)).triangle_count == 2
+    # Several files: one scene, one geometry each, triangles numbered on.
+    stl = tmp_path / "tri.stl"
+    stl.write_text(
+        "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 2\nvertex 1 0 2\nvertex 0 1 2\n"
+        "endloop\nendfacet\nendsolid t\n"
+    )
+    both = raytree.Scene.load([obj, stl])
+    assert both.triangle_count == 3 and "2 geometries" in repr(both)
+    assert [(g["first_triangle"], g["triangle_count"]) for g in both.geometries] == [(0, 2), (2, 1)]
+    assert both.geometries[1]["name"].endswith("tri.stl")
+    ans = raytree.Accelerator(both).cast_rays([[0.2, 0.1, 5, 0, 0, -1], [0.6, 0.1, 1, 0, 0, -1]])
+    assert ans["primitive_ids"].tolist() == [2, 0] and ans["geometry_ids"].tolist() == [1, 0]
+    lists = raytree.Accelerator(both, "bvh4").list_intersections([0.2, 0.1, 5, 0, 0, -1])
+    assert lists["primitive_ids"].tolist() == [2, 0] and lists["geometry_ids"].tolist() == [1, 0]
+    g, local = both.geometry_of(np.array([[2, 0], [1, raytree.INVALID_ID]], dtype=np.uint32))
+    assert g.tolist() == [[1, 0], [0, raytree.INVALID_ID]]
+    assert local.tolist() == [[0, 0], [1, raytree.INVALID_ID]]
+    assert both.geometry_of([-1, 3])[0].tolist() == [raytree.INVALID_ID] * 2
+    with pytest.raises(TypeError, match="path must be"):
+        raytree.Scene.load(3)
+    with pytest.raises(ValueError, match="no mesh files"):
+        raytree.Scene.load([])
     with pytest.raises(FileNotFoundError, match="missing.obj"):
         raytree.Scene.load(tmp_path / "missing.obj")
     bad = tmp_path / "bad.obj"
@@ -276,7 +298,8 @@ def test_scene_files(tmp_path):
 
 
 def test_names():
-    assert raytree.STRUCTURES == ("bvh", "dst", "dst-similar", "bih", "htree", "cbvh", "brute")
+    assert raytree.STRUCTURES[0] == "bvh" and raytree.STRUCTURES[-1] == "brute"
+    assert {"dst", "dst-similar", "bih", "htree", "cbvh", "bvh4", "bvh8"} <= set(raytree.STRUCTURES)
     assert "laine-4" in raytree.TRAVERSALS and raytree.TRAVERSALS[0] == "stack"
     assert raytree.BUILDERS == ("sah", "hybrid")
     assert raytree.INVALID_ID == 0xFFFFFFFF
