@@ -291,8 +291,9 @@ impl Split for ClosestOut<'_> {
 }
 
 impl ClosestOut<'_> {
+    /// Ray `j`'s answer, but for its normal (see [`Self::set_normals`]).
     #[inline(always)]
-    fn set(&mut self, j: usize, hit: Option<Hit>, triangles: &[Triangle], geometries: &Geometries) {
+    fn set(&mut self, j: usize, hit: Option<Hit>, geometries: &Geometries) {
         match hit {
             Some(h) => {
                 self.t[j] = h.t;
@@ -300,16 +301,30 @@ impl ClosestOut<'_> {
                 self.geom[j] = geometries.of_triangle(h.prim);
                 self.uv[2 * j] = h.u;
                 self.uv[2 * j + 1] = h.v;
-                let n = unit_normal(&triangles[h.prim as usize]);
-                self.normal[3 * j..3 * j + 3].copy_from_slice(&n.to_array());
             }
             None => {
                 self.t[j] = f32::INFINITY;
                 self.prim[j] = INVALID_ID;
                 self.geom[j] = INVALID_ID;
                 self.uv[2 * j..2 * j + 2].fill(0.0);
-                self.normal[3 * j..3 * j + 3].fill(0.0);
             }
+        }
+    }
+
+    /// The normals of the triangles hit, in a pass of their own once the
+    /// chunk is traced. A structure whose leaves keep their own copies of
+    /// the triangles (bvh4, bvh8) never touches the scene's triangle array,
+    /// so each normal's triangle is a cache miss; in this loop the loads do
+    /// not depend on each other and the misses overlap. Computing each
+    /// normal right after its ray cost bvh8 on dragon.obj about 20% (350 ns
+    /// per hit), this pass about 3%.
+    fn set_normals(&mut self, triangles: &[Triangle]) {
+        for (prim, normal) in self.prim.iter().zip(self.normal.chunks_exact_mut(3)) {
+            let n = match triangles.get(*prim as usize) {
+                Some(t) => unit_normal(t).to_array(),
+                None => [0.0; 3],
+            };
+            normal.copy_from_slice(&n);
         }
     }
 }
@@ -354,8 +369,9 @@ impl WithAccel for Closest<'_> {
                             hit
                         }
                     };
-                    o.set(j, hit, triangles, geometries);
+                    o.set(j, hit, geometries);
                 }
+                o.set_normals(triangles);
             });
     }
 }
