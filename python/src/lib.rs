@@ -457,6 +457,7 @@ pub struct PyAccelerator {
     info: StructureInfo,
     bvh: BuildStats,
     triangles: Arc<[Triangle]>,
+    normals: Vec<[f32; 3]>,
     geometries: Geometries,
     scene: Py<PyScene>,
     builder: Builder,
@@ -649,11 +650,12 @@ impl PyAccelerator {
         let geometries = Geometries::of(&scene.get().scene.mesh);
         let options = BuildOptions::new(builder).with_max_leaf_size(max_leaf_size as usize);
         let tris = triangles.clone();
-        let (bvh, built) = py.detach(move || {
+        let (bvh, built, normals) = py.detach(move || {
             pool.install(|| {
                 let bvh = Bvh::build(&tris, &options);
+                let normals = trace::unit_normals(&tris);
                 let built = Built::new(structure, traversal, &bvh, tris);
-                (bvh.stats, built)
+                (bvh.stats, built, normals)
             })
         });
         let (built, info) = built.map_err(|e| py_err(e, false))?;
@@ -662,6 +664,7 @@ impl PyAccelerator {
             info,
             bvh,
             triangles,
+            normals,
             geometries,
             scene: scene.clone().unbind(),
             builder,
@@ -811,7 +814,7 @@ impl PyAccelerator {
             let job = Closest {
                 rays: q.rays()?,
                 out,
-                triangles: &self.triangles,
+                normals: &self.normals,
                 geometries: &self.geometries,
                 invalid: &invalid,
             };
@@ -1015,9 +1018,9 @@ impl PyAccelerator {
                 ray_ids: slice_mut(&mut rw)?,
             };
             let splits = slice_mut(&mut sw)?;
-            let (pool, triangles, geometries) = (&q.pool, &self.triangles, &self.geometries);
+            let (pool, normals, geometries) = (&q.pool, &self.normals, &self.geometries);
             py.detach(|| {
-                pool.install(|| trace::fill_lists(&chunks, out, splits, triangles, geometries))
+                pool.install(|| trace::fill_lists(&chunks, out, splits, normals, geometries))
             });
         }
         let d = PyDict::new(py);
