@@ -123,11 +123,11 @@ fn other_options_are_refused_unless_rebuilt() {
     let rays = common::mixed_rays(&scene, 500, 8);
     std::fs::write(d.join("r.rays"), rayfile::encode_rays(&rays)).unwrap();
     run(&["build", "-s", "chess:2000", "-o", "s.rtree"], d);
-    let trace = |extra: &[&str]| {
+    fn trace<'a>(extra: &[&'a str]) -> Vec<&'a str> {
         let mut a = vec!["trace", "-s", "s.rtree", "--rays", "r.rays", "-o", "h.bin"];
         a.extend(extra);
         a
-    };
+    }
     fails(&trace(&["-a", "dst"]), d, "s.rtree holds a saved bvh/stack, but the options ask for dst");
     fails(&trace(&["-t", "sparse"]), d, "ask for bvh/sparse");
     fails(&trace(&["--builder", "hybrid"]), d, "--builder hybrid (the file's BVH: sah)");
