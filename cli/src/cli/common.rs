@@ -179,7 +179,10 @@ pub struct StructureArgs {
 impl StructureArgs {
     /// The structure and traversal asked for; what is not given is
     /// `saved`'s (a saved structure's), or the default.
-    pub fn kinds(&self, saved: Option<(StructureKind, TraversalKind)>) -> (StructureKind, TraversalKind) {
+    pub fn kinds(
+        &self,
+        saved: Option<(StructureKind, TraversalKind)>,
+    ) -> (StructureKind, TraversalKind) {
         let (s, t) = saved.unwrap_or((StructureKind::Bvh, TraversalKind::Stack));
         match (self.accel, self.traversal) {
             (Some(a), Some(t)) => (a, t),
