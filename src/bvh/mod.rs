@@ -146,14 +146,16 @@ impl Bvh {
                     let prims = (first as usize)
                         .checked_add(count as usize)
                         .and_then(|end| self.prims.get(first as usize..end))
-                        .ok_or(format!(
-                            "leaf {i}: triangles {first}..+{count} past the {} listed",
-                            self.prims.len()
-                        ))?;
+                        .ok_or_else(|| {
+                            format!(
+                                "leaf {i}: triangles {first}..+{count} past the {} listed",
+                                self.prims.len()
+                            )
+                        })?;
                     for &p in prims {
                         let t = triangles
                             .get(p as usize)
-                            .ok_or(format!("leaf {i}: bad triangle {p}"))?;
+                            .ok_or_else(|| format!("leaf {i}: bad triangle {p}"))?;
                         if !n.bounds.contains(&t.bounds()) {
                             return Err(format!("leaf {i} does not contain triangle {p}"));
                         }

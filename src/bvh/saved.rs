@@ -31,6 +31,42 @@ fn encode(n: &Node) -> [u32; 9] {
     [b[0], b[1], b[2], b[3], b[4], b[5], kind, a, c]
 }
 
+/// The nodes of the records, parent links and depths not yet set.
+fn decode(records: &[[u32; 9]]) -> Result<Vec<Node>, String> {
+    let n = records.len();
+    if n == 0 || n >= NO_PARENT as usize {
+        return Err(format!("the BVH has {n} nodes"));
+    }
+    let mut nodes = Vec::with_capacity(n);
+    for (i, w) in records.iter().enumerate() {
+        let bounds = Aabb::from_array(&std::array::from_fn(|k| f32::from_bits(w[k])));
+        let kind = if w[6] == LEAF {
+            NodeKind::Leaf {
+                first: w[7],
+                count: w[8],
+            }
+        } else if w[6] < 3 && w[8] == 0 {
+            NodeKind::Inner {
+                left: i as u32 + 1,
+                right: w[7],
+                axis: w[6] as u8,
+            }
+        } else {
+            return Err(format!(
+                "BVH node {i}: kind word {:#x} with {} is neither a leaf nor an inner node",
+                w[6], w[8]
+            ));
+        };
+        nodes.push(Node {
+            bounds,
+            parent: NO_PARENT,
+            depth: 0,
+            kind,
+        });
+    }
+    Ok(nodes)
+}
+
 impl Bvh {
     /// Writes the tree's sections.
     pub(crate) fn save<'a>(&'a self, s: &mut Sections<'a>) {
@@ -61,39 +97,9 @@ impl Bvh {
                 "the BVH's leaf size limit {max_leaf_size} is not in 1..=255"
             ));
         }
-        let records = s.vec::<[u32; 9]>("bvh.nodes")?;
         let prims = s.vec::<u32>("bvh.prims")?;
-        let n = records.len();
-        if n == 0 || n >= NO_PARENT as usize {
-            return Err(format!("the BVH has {n} nodes"));
-        }
-        let mut nodes = Vec::with_capacity(n);
-        for (i, w) in records.iter().enumerate() {
-            let bounds = Aabb::from_array(&std::array::from_fn(|k| f32::from_bits(w[k])));
-            let kind = if w[6] == LEAF {
-                NodeKind::Leaf {
-                    first: w[7],
-                    count: w[8],
-                }
-            } else if w[6] < 3 && w[8] == 0 {
-                NodeKind::Inner {
-                    left: i as u32 + 1,
-                    right: w[7],
-                    axis: w[6] as u8,
-                }
-            } else {
-                return Err(format!(
-                    "BVH node {i}: kind word {:#x} with {} is neither a leaf nor an inner node",
-                    w[6], w[8]
-                ));
-            };
-            nodes.push(Node {
-                bounds,
-                parent: NO_PARENT,
-                depth: 0,
-                kind,
-            });
-        }
+        let mut nodes = s.with::<[u32; 9], _>("bvh.nodes", decode)??;
+        let n = nodes.len();
         let (mut inner, mut depth) = (0, 0);
         for i in 0..n {
             let NodeKind::Inner { left, right, .. } = nodes[i].kind else {

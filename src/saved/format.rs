@@ -6,7 +6,7 @@
 
 use bytemuck::Pod;
 use std::borrow::Cow;
-use std::cell::Cell;
+use std::sync::atomic::{AtomicBool, Ordering};
 use xxhash_rust::xxh3::xxh3_64;
 
 /// Every section starts at a multiple of this many bytes (a cache line;
@@ -200,7 +200,7 @@ pub struct Entry<'a> {
     pub name: String,
     pub elem: u32,
     pub bytes: &'a [u8],
-    used: Cell<bool>,
+    used: AtomicBool,
 }
 
 impl<'a> Entry<'a> {
@@ -209,7 +209,7 @@ impl<'a> Entry<'a> {
             name,
             elem,
             bytes,
-            used: Cell::new(false),
+            used: AtomicBool::new(false),
         }
     }
 }
@@ -228,7 +228,7 @@ impl<'a> Source<'a> {
             .iter()
             .find(|e| e.name == name)
             .ok_or_else(|| format!("no section '{name}'"))?;
-        e.used.set(true);
+        e.used.store(true, Ordering::Relaxed);
         Ok(e)
     }
 
@@ -251,6 +251,28 @@ impl<'a> Source<'a> {
         })
     }
 
+    /// Section `name` as an array of `T`, borrowed where the bytes are
+    /// aligned for `T` (a mapped file) and copied otherwise, handed to `f`.
+    pub fn with<T: Pod, R>(
+        &self,
+        name: &'static str,
+        f: impl FnOnce(&[T]) -> R,
+    ) -> Result<R, String> {
+        let e = self.entry(name)?;
+        let size = std::mem::size_of::<T>();
+        if e.elem as usize != size || e.bytes.len() % size != 0 {
+            return Err(format!(
+                "section '{name}' holds {} bytes of {}-byte elements where {size}-byte elements are expected",
+                e.bytes.len(),
+                e.elem
+            ));
+        }
+        Ok(match bytemuck::try_cast_slice::<u8, T>(e.bytes) {
+            Ok(s) => f(s),
+            Err(_) => f(&bytemuck::pod_collect_to_vec::<u8, T>(e.bytes)),
+        })
+    }
+
     /// Section `name` as a record.
     pub fn record(&self, name: &'static str) -> Result<RecordReader<'a>, String> {
         let e = self.entry(name)?;
@@ -264,7 +286,7 @@ impl<'a> Source<'a> {
     pub fn unused(&self) -> Option<&str> {
         self.entries
             .iter()
-            .find(|e| !e.used.get())
+            .find(|e| !e.used.load(Ordering::Relaxed))
             .map(|e| e.name.as_str())
     }
 }

@@ -80,6 +80,7 @@ use serde::Serialize;
 use std::io::Write;
 use std::path::Path;
 use std::sync::Arc;
+use std::time::Instant;
 
 /// The first 8 bytes of every saved file.
 pub const MAGIC: [u8; 8] = *b"RAYTREE\0";
@@ -150,6 +151,29 @@ pub struct Saved {
     /// What it reports; `conversion_seconds` is the time it took when it
     /// was built.
     pub info: StructureInfo,
+    /// Where the time of the load went.
+    pub times: LoadTimes,
+}
+
+/// Where the time of a load went, in seconds.
+#[derive(Clone, Copy, Debug, Default, Serialize, PartialEq)]
+pub struct LoadTimes {
+    /// Opening and mapping the file (its pages read in).
+    pub map: f64,
+    /// Checking the header, the table, the padding and every section's
+    /// checksum.
+    pub checksums: f64,
+    /// Copying and checking the mesh, expanding its triangles.
+    pub scene: f64,
+    /// Copying and checking the BVH and the structure (side by side).
+    pub structure: f64,
+}
+
+impl LoadTimes {
+    /// The whole load.
+    pub fn total(&self) -> f64 {
+        self.map + self.checksums + self.scene + self.structure
+    }
 }
 
 /// Whether `path` names a saved structure rather than a scene: its
@@ -200,6 +224,7 @@ pub fn load(path: &Path, opts: &LayoutOptions) -> Result<Saved> {
         path: path.into(),
         source,
     };
+    let start = Instant::now();
     let file = std::fs::File::open(path).map_err(io)?;
     let len = file.metadata().map_err(io)?.len();
     if len == 0 {
@@ -209,7 +234,10 @@ pub fn load(path: &Path, opts: &LayoutOptions) -> Result<Saved> {
     // is expected not to change while it is loaded (as for any file a
     // command reads). Everything is copied out before the map is dropped.
     let map = unsafe { memmap2::MmapOptions::new().populate().map(&file) }.map_err(io)?;
-    decode(&map, path, opts)
+    let map_seconds = start.elapsed().as_secs_f64();
+    let mut saved = decode(&map, path, opts)?;
+    saved.times.map = map_seconds;
+    Ok(saved)
 }
 
 /// [`load`] from the file's bytes; `path` names it in errors.
@@ -219,9 +247,13 @@ pub fn decode(bytes: &[u8], path: &Path, opts: &LayoutOptions) -> Result<Saved> 
         line: None,
         message,
     };
+    let start = Instant::now();
     let (header, entries) = open(bytes).map_err(err)?;
+    let checksums = start.elapsed().as_secs_f64();
     let source = Source { entries };
-    read(header, &source, opts).map_err(err)
+    let mut saved = read(header, &source, opts).map_err(err)?;
+    saved.times.checksums = checksums;
+    Ok(saved)
 }
 
 /// Reads and checks the header of the file at `path` only (its table and
@@ -657,23 +689,33 @@ fn read(
     s: &Source<'_>,
     opts: &LayoutOptions,
 ) -> std::result::Result<Saved, String> {
+    let start = Instant::now();
     let scene = read_scene(s)?;
-    let bvh = Bvh::load(s, &scene.triangles)?;
+    let scene_seconds = start.elapsed().as_secs_f64();
+    // The BVH and the structure are checked side by side: neither needs
+    // the other until the structure's info is derived.
+    let (bvh, built) = rayon::join(
+        || Bvh::load(s, &scene.triangles),
+        || {
+            Built::load(
+                header.structure,
+                header.traversal,
+                &header.layout,
+                s,
+                scene.triangles.clone(),
+                opts,
+            )
+        },
+    );
+    let (bvh, built) = (bvh?, built?);
+    let structure_seconds = start.elapsed().as_secs_f64() - scene_seconds;
+    let mut info = built.info(&bvh);
     let conversion_seconds = {
         let mut r = s.record("structure.meta")?;
         let v = r.f64()?;
         r.finish()?;
         v
     };
-    let (built, mut info) = Built::load(
-        header.structure,
-        header.traversal,
-        &header.layout,
-        s,
-        &bvh,
-        scene.triangles.clone(),
-        opts,
-    )?;
     info.conversion_seconds = conversion_seconds;
     if let Some(name) = s.unused() {
         return Err(format!(
@@ -720,6 +762,11 @@ fn read(
         bvh,
         built,
         info,
+        times: LoadTimes {
+            scene: scene_seconds,
+            structure: structure_seconds,
+            ..LoadTimes::default()
+        },
     })
 }
 

@@ -548,18 +548,16 @@ impl Built {
 
     /// Reads a saved structure (`structure` with `traversal` over `layout`,
     /// as the file's header names them) over `triangles` back from a
-    /// file's sections, checking every invariant its traversal relies on;
-    /// its info is derived from `bvh`, the file's canonical BVH. The error
-    /// says what is wrong.
+    /// file's sections, checking every invariant its traversal relies on.
+    /// The error says what is wrong.
     pub(crate) fn load(
         structure: StructureKind,
         traversal: TraversalKind,
         layout: &str,
         s: &Source<'_>,
-        bvh: &Bvh,
         triangles: Arc<[Triangle]>,
         opts: &LayoutOptions,
-    ) -> std::result::Result<(Built, StructureInfo), String> {
+    ) -> std::result::Result<Built, String> {
         use StructureKind as S;
         use TraversalKind as T;
         check(structure, traversal).map_err(|e| e.to_string())?;
@@ -601,8 +599,7 @@ impl Built {
                 ))
             }
         };
-        let info = built.info(bvh);
-        Ok((built, info))
+        Ok(built)
     }
 
     /// Traversal `t` over an existing sparse layout; STACK means STACK over

@@ -7,7 +7,7 @@ use raytree::bvh::{BuildOptions, BuildStats, Builder, Bvh};
 use raytree::error::Result;
 use raytree::names::Named;
 use raytree::prelude::Vec3;
-use raytree::saved::Header;
+use raytree::saved::{Header, LoadTimes};
 use raytree::scene::{Camera, Fov, Scene};
 use raytree::structures::{Built, LayoutOptions, StructureInfo, StructureKind, TraversalKind};
 use serde::Serialize;
@@ -293,6 +293,8 @@ pub struct SavedReport {
     pub header: Header,
     /// Mapping, checking and copying it out, in seconds.
     pub load_seconds: f64,
+    /// Where that time went: mapping, checksums, scene, BVH and structure.
+    pub load_times: LoadTimes,
     /// What was built anew because the options asked for something the
     /// file does not hold (--rebuild): "bvh", "structure", or nothing.
     pub rebuilt: Vec<&'static str>,
@@ -328,6 +330,7 @@ pub fn load_scene_with(
         file: path.into(),
         header: s.header.clone(),
         load_seconds: seconds,
+        load_times: s.times,
         rebuilt: Vec::new(),
     });
     let parts = SavedParts {

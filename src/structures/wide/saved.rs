@@ -56,7 +56,6 @@ impl<const W: usize> WideBvh<W> {
         let saved_leaves = r.usize()?;
         let sah_cost = r.f64()?;
         r.finish()?;
-        let words = s.vec::<u32>("wide.nodes")?;
         let blocks = s.vec::<TriBlock>("wide.blocks")?;
         let node_ids = s.vec::<u32>("wide.node-ids")?;
         let leaf_ids: Vec<(u32, u32)> = s
@@ -64,21 +63,23 @@ impl<const W: usize> WideBvh<W> {
             .into_iter()
             .map(|[a, b]| (a, b))
             .collect();
-        if words.len() % (7 * W) != 0 {
-            return Err(format!(
-                "{what}: {} words are not whole {W}-wide nodes",
-                words.len()
-            ));
-        }
-        let nodes: Vec<WideNode<W>> = words
-            .chunks_exact(7 * W)
-            .map(|c| WideNode {
-                planes: std::array::from_fn(|row| {
-                    std::array::from_fn(|k| f32::from_bits(c[row * W + k]))
-                }),
-                children: std::array::from_fn(|k| c[6 * W + k]),
-            })
-            .collect();
+        let nodes = s.with::<u32, _>("wide.nodes", |words| {
+            if words.len() % (7 * W) != 0 {
+                return Err(format!(
+                    "{what}: {} words are not whole {W}-wide nodes",
+                    words.len()
+                ));
+            }
+            Ok(words
+                .chunks_exact(7 * W)
+                .map(|c| WideNode {
+                    planes: std::array::from_fn(|row| {
+                        std::array::from_fn(|k| f32::from_bits(c[row * W + k]))
+                    }),
+                    children: std::array::from_fn(|k| c[6 * W + k]),
+                })
+                .collect::<Vec<WideNode<W>>>())
+        })??;
         if depth as usize >= MAX_STACK_DEPTH {
             return Err(format!(
                 "wide.meta: depth {depth} is past the traversal's {} levels",
