@@ -1,6 +1,6 @@
 //! What the fuzz targets (`fuzz/`, run with `cargo +nightly fuzz`) check, as
 //! plain functions, so that every input a fuzzer ever found is replayed by
-//! the ordinary test suite (`tests/fuzz_regressions.rs`). Each panics, and
+//! the ordinary test suite (`tests/core/fuzz_regressions.rs`). Each panics, and
 //! only panics, when raytree misbehaves on the input.
 
 use crate::bvh::{BuildOptions, Builder, Bvh};
@@ -9,7 +9,7 @@ use crate::rayfile;
 use crate::scene::{Camera, Mesh, Scene};
 use crate::stats::NoStats;
 use crate::structures::{dst::node::DstNode, htree::node::HNode, WithAccel};
-use crate::structures::{Accel, BruteForce, Built, StructureKind, TraversalKind};
+use crate::structures::{Accel, BruteForce, Built, LayoutOptions, StructureKind, TraversalKind};
 use std::path::Path;
 
 /// Meshes larger than this are only parsed, not traced: the fuzzer's time
@@ -118,6 +118,69 @@ pub fn nodes(data: &[u8]) {
             let mut out = Vec::new();
             n.encode(&mut out).expect("a decoded offset fits");
             assert_eq!(out[..], w[..n.words()], "H-tree node {n:?}");
+        }
+    }
+}
+
+/// A saved structure's bytes (the format of [`crate::saved`]): loading
+/// gives a structure or an error naming the file, never a panic, both as
+/// the bytes are and with their checksums recomputed
+/// ([`crate::saved::reseal`]), so that alterations reach the checks behind
+/// the checksums. A file that loads as it is (a genuine one: an altered
+/// file fails its checksums) agrees with the oracle on rays through its
+/// camera; one that loads only once resealed must trace them without a
+/// panic.
+pub fn saved(data: &[u8]) {
+    let check = |bytes: &[u8], genuine: bool| {
+        let opts = LayoutOptions {
+            implicit_reservation_limit: 1 << 30,
+        };
+        match crate::saved::decode(bytes, Path::new("fuzz.rtree"), &opts) {
+            Ok(s) => {
+                if s.scene.triangles.len() > TRACE_LIMIT {
+                    return;
+                }
+                let rays: Vec<Ray> = (0..64)
+                    .map(|i| {
+                        s.scene
+                            .camera
+                            .ray((i % 8) as f32 / 7.0, (i / 8) as f32 / 7.0, 1.0)
+                    })
+                    .collect();
+                if genuine {
+                    let oracle = BruteForce::new(s.scene.triangles.clone());
+                    s.built.with(Agrees {
+                        oracle: &oracle,
+                        rays: &rays,
+                    });
+                } else {
+                    s.built.with(Traces { rays: &rays });
+                }
+            }
+            Err(e) => assert!(
+                e.to_string().starts_with("fuzz.rtree: "),
+                "error without the file: {e}"
+            ),
+        }
+    };
+    check(data, true);
+    let mut resealed = data.to_vec();
+    if crate::saved::reseal(&mut resealed) && resealed != data {
+        check(&resealed, false);
+    }
+}
+
+struct Traces<'a> {
+    rays: &'a [Ray],
+}
+
+impl WithAccel for Traces<'_> {
+    type Output = ();
+    fn run<A: Accel>(self, a: &A) {
+        for r in self.rays {
+            a.closest_hit(r, &mut NoStats);
+            a.any_hit(r, &mut NoStats);
+            a.count_hits(r);
         }
     }
 }

@@ -41,6 +41,7 @@ pub mod names;
 pub mod rayfile;
 pub mod render;
 pub mod rng;
+pub mod saved;
 pub mod scene;
 pub mod stats;
 pub mod structures;

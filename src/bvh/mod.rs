@@ -8,6 +8,7 @@
 mod binning;
 mod build;
 mod node;
+mod saved;
 
 pub use build::{BuildOptions, Builder};
 pub use node::{Node, NodeKind};
@@ -106,7 +107,9 @@ impl Bvh {
     /// Checks the tree's invariants and says which one fails: preorder with
     /// the left child next, parent links and depths consistent, every box
     /// holding its children's boxes (leaves: their triangles'), every
-    /// non-degenerate triangle in exactly one leaf, leaves within the size limit.
+    /// non-degenerate triangle in exactly one leaf, leaves within the size
+    /// limit. Never panics, whatever the nodes hold (a loaded file's tree is
+    /// checked with it).
     pub fn validate(&self, triangles: &[crate::geometry::Triangle]) -> Result<(), String> {
         if self.nodes.is_empty() {
             return Err("no nodes".into());
@@ -134,20 +137,29 @@ impl Bvh {
                         }
                     }
                 }
-                NodeKind::Leaf { count, .. } => {
+                NodeKind::Leaf { first, count } => {
                     // Only the root of a tree over no triangles is empty.
                     let empty_ok = i == 0 && self.prims.is_empty();
                     if (count == 0 && !empty_ok) || count as usize > self.stats.max_leaf_size {
                         return Err(format!("leaf {i} holds {count} triangles"));
                     }
-                    for &p in self.leaf_prims(n) {
+                    let prims = (first as usize)
+                        .checked_add(count as usize)
+                        .and_then(|end| self.prims.get(first as usize..end))
+                        .ok_or_else(|| {
+                            format!(
+                                "leaf {i}: triangles {first}..+{count} past the {} listed",
+                                self.prims.len()
+                            )
+                        })?;
+                    for &p in prims {
                         let t = triangles
                             .get(p as usize)
-                            .ok_or(format!("leaf {i}: bad triangle {p}"))?;
+                            .ok_or_else(|| format!("leaf {i}: bad triangle {p}"))?;
                         if !n.bounds.contains(&t.bounds()) {
                             return Err(format!("leaf {i} does not contain triangle {p}"));
                         }
-                        seen[p as usize] += 1;
+                        seen[p as usize] = seen[p as usize].saturating_add(1);
                     }
                 }
             }

@@ -2,6 +2,7 @@
 //! and the benchmarks spell them, and the dispatch from a name to a
 //! monomorphized trace.
 
+use super::dst::plan::Rules;
 use super::dst::DstStats;
 use super::htree::HtreeStats;
 use super::implicit::{ImplicitA, ImplicitB, OnImplicit, DEFAULT_RESERVATION_LIMIT};
@@ -15,6 +16,7 @@ use crate::bvh::Bvh;
 use crate::error::{Error, Result};
 use crate::geometry::Triangle;
 use crate::names::Named;
+use crate::saved::{Sections, Source};
 use serde::Serialize;
 use std::sync::Arc;
 use std::time::Instant;
@@ -369,29 +371,9 @@ impl Built {
     ) -> Result<(Built, StructureInfo)> {
         check(structure, traversal)?;
         let start = Instant::now();
-        let inner = bvh.stats.inner_nodes;
-        let leaves = bvh.stats.leaves;
-        let info = |layout, node_bytes: usize, index_bytes: usize| StructureInfo {
-            structure,
-            traversal: (structure == StructureKind::Bvh).then_some(traversal),
-            layout,
-            bytes: node_bytes + index_bytes,
-            node_bytes,
-            index_bytes,
-            reserved_bytes: None,
-            inner_nodes: inner,
-            leaves,
-            state_bytes: (structure == StructureKind::Bvh)
-                .then(|| state_bytes(traversal, bvh.stats.depth)),
-            conversion_seconds: 0.0,
-            dst: None,
-            htree: None,
-        };
-        let (built, mut info) = match (structure, traversal) {
+        let built = match (structure, traversal) {
             (StructureKind::Bvh, TraversalKind::Stack) => {
-                let b = BinaryBvh::from_bvh(bvh, triangles)?;
-                let i = info("binary", b.node_bytes(), b.index_bytes());
-                (Built::Bvh(b), i)
+                Built::Bvh(BinaryBvh::from_bvh(bvh, triangles)?)
             }
             (StructureKind::Bvh, TraversalKind::ImplicitA | TraversalKind::ImplicitB) => {
                 let im = Arc::new(ImplicitBvh::from_bvh(
@@ -399,79 +381,225 @@ impl Built {
                     triangles,
                     opts.implicit_reservation_limit,
                 )?);
-                let mut i = info("implicit", im.resident_bytes(), im.index_bytes());
-                i.reserved_bytes = Some(im.reserved_bytes());
-                let b = if traversal == TraversalKind::ImplicitA {
+                if traversal == TraversalKind::ImplicitA {
                     Built::ImplicitA(OnImplicit::new(im))
                 } else {
                     Built::ImplicitB(OnImplicit::new(im))
-                };
-                (b, i)
+                }
             }
             (StructureKind::Bvh, t) => {
-                let sp = Arc::new(SparseBvh::from_bvh(bvh, triangles)?);
-                let i = info("sparse", sp.node_bytes(), sp.index_bytes());
-                (Built::sparse(t, sp)?, i)
+                Built::sparse(t, Arc::new(SparseBvh::from_bvh(bvh, triangles)?))?
             }
             (StructureKind::Dst | StructureKind::DstSimilar, _) => {
                 let similar = structure == StructureKind::DstSimilar;
-                let t = DualSplitTree::from_bvh(bvh, triangles, similar)?;
-                let mut i = info("dual-split", t.stats.node_bytes, t.stats.index_bytes);
-                i.inner_nodes = t.stats.split_nodes + t.stats.carve_single + t.stats.carve_dual
-                    - t.stats.carving_leaves;
-                i.leaves = t.stats.leaves();
-                i.dst = Some(t.stats.clone());
-                (Built::Dst(t), i)
+                Built::Dst(DualSplitTree::from_bvh(bvh, triangles, similar)?)
             }
-            (StructureKind::Bih, _) => {
-                let b = Bih::from_bvh(bvh, triangles)?;
-                let s = b.stats();
-                let mut i = info("bih", s.node_bytes, s.index_bytes);
-                i.inner_nodes = s.split_nodes + s.carve_single - s.carving_leaves;
-                i.leaves = s.leaves();
-                i.dst = Some(s.clone());
-                (Built::Bih(b), i)
+            (StructureKind::Bih, _) => Built::Bih(Bih::from_bvh(bvh, triangles)?),
+            (StructureKind::Htree, _) => Built::Htree(HTree::from_bvh(bvh, triangles)?),
+            (StructureKind::Cbvh, _) => Built::Cbvh(CompactBvh::from_bvh(bvh, triangles)?),
+            (StructureKind::Bvh4, _) => Built::Bvh4(Bvh4::from_bvh(bvh, triangles)?),
+            (StructureKind::Bvh8, _) => Built::Bvh8(Bvh8::from_bvh(bvh, triangles)?),
+            (StructureKind::Brute, _) => Built::Brute(BruteForce::new(triangles)),
+        };
+        let mut info = built.info(bvh);
+        info.conversion_seconds = start.elapsed().as_secs_f64();
+        Ok((built, info))
+    }
+
+    /// The structure, its traversal (STACK for the structures that have
+    /// their own) and the layout it runs over ([`StructureInfo::layout`]).
+    pub fn kind(&self) -> (StructureKind, TraversalKind, &'static str) {
+        use StructureKind as S;
+        use TraversalKind as T;
+        match self {
+            Built::Bvh(_) => (S::Bvh, T::Stack, "binary"),
+            Built::StackOnSparse(_) => (S::Bvh, T::Stack, "sparse"),
+            Built::Sparse(_) => (S::Bvh, T::Sparse, "sparse"),
+            Built::Hapala(_) => (S::Bvh, T::Hapala, "sparse"),
+            Built::Laine0(_) => (S::Bvh, T::Laine0, "sparse"),
+            Built::Laine1(_) => (S::Bvh, T::Laine1, "sparse"),
+            Built::Laine2(_) => (S::Bvh, T::Laine2, "sparse"),
+            Built::Laine4(_) => (S::Bvh, T::Laine4, "sparse"),
+            Built::Laine8(_) => (S::Bvh, T::Laine8, "sparse"),
+            Built::ImplicitA(_) => (S::Bvh, T::ImplicitA, "implicit"),
+            Built::ImplicitB(_) => (S::Bvh, T::ImplicitB, "implicit"),
+            Built::Dst(t) if t.rules().complete => (S::Dst, T::Stack, "dual-split"),
+            Built::Dst(_) => (S::DstSimilar, T::Stack, "dual-split"),
+            Built::Bih(_) => (S::Bih, T::Stack, "bih"),
+            Built::Htree(_) => (S::Htree, T::Stack, "htree"),
+            Built::Cbvh(_) => (S::Cbvh, T::Stack, "compact"),
+            Built::Bvh4(_) => (S::Bvh4, T::Stack, "wide-4"),
+            Built::Bvh8(_) => (S::Bvh8, T::Stack, "wide-8"),
+            Built::Brute(_) => (S::Brute, T::Stack, "triangles"),
+        }
+    }
+
+    /// The sparse layout of a sparse-layout variant.
+    fn sparse_layout(&self) -> Option<&Arc<SparseBvh>> {
+        Some(match self {
+            Built::StackOnSparse(a) => &a.layout,
+            Built::Sparse(a) => &a.layout,
+            Built::Hapala(a) => &a.layout,
+            Built::Laine0(a) => &a.layout,
+            Built::Laine1(a) => &a.layout,
+            Built::Laine2(a) => &a.layout,
+            Built::Laine4(a) => &a.layout,
+            Built::Laine8(a) => &a.layout,
+            _ => return None,
+        })
+    }
+
+    /// What the structure reports about itself, derived from `bvh` (its
+    /// conversion time zero).
+    pub fn info(&self, bvh: &Bvh) -> StructureInfo {
+        let (structure, traversal, layout) = self.kind();
+        let info = |node_bytes: usize, index_bytes: usize| StructureInfo {
+            structure,
+            traversal: (structure == StructureKind::Bvh).then_some(traversal),
+            layout,
+            bytes: node_bytes + index_bytes,
+            node_bytes,
+            index_bytes,
+            reserved_bytes: None,
+            inner_nodes: bvh.stats.inner_nodes,
+            leaves: bvh.stats.leaves,
+            state_bytes: (structure == StructureKind::Bvh)
+                .then(|| state_bytes(traversal, bvh.stats.depth)),
+            conversion_seconds: 0.0,
+            dst: None,
+            htree: None,
+        };
+        let dst = |s: &DstStats, dual: bool| {
+            let mut i = info(s.node_bytes, s.index_bytes);
+            i.inner_nodes = s.split_nodes + s.carve_single + if dual { s.carve_dual } else { 0 }
+                - s.carving_leaves;
+            i.leaves = s.leaves();
+            i.dst = Some(s.clone());
+            i
+        };
+        if let Some(sp) = self.sparse_layout() {
+            return info(sp.node_bytes(), sp.index_bytes());
+        }
+        match self {
+            Built::Bvh(b) => info(b.node_bytes(), b.index_bytes()),
+            Built::ImplicitA(OnImplicit { layout: im, .. })
+            | Built::ImplicitB(OnImplicit { layout: im, .. }) => {
+                let mut i = info(im.resident_bytes(), im.index_bytes());
+                i.reserved_bytes = Some(im.reserved_bytes());
+                i
             }
-            (StructureKind::Htree, _) => {
-                let h = HTree::from_bvh(bvh, triangles)?;
+            Built::Dst(t) => dst(&t.stats, true),
+            Built::Bih(b) => dst(b.stats(), false),
+            Built::Htree(h) => {
                 let s = &h.stats;
-                let mut i = info("htree", s.node_bytes, s.index_bytes);
+                let mut i = info(s.node_bytes, s.index_bytes);
                 i.inner_nodes = s.split_nodes + s.bound_nodes;
                 i.leaves = s.leaves;
                 i.htree = Some(s.clone());
-                (Built::Htree(h), i)
+                i
             }
-            (StructureKind::Cbvh, _) => {
-                let c = CompactBvh::from_bvh(bvh, triangles)?;
-                let mut i = info("compact", c.node_bytes(), c.index_bytes());
+            Built::Cbvh(c) => {
+                let mut i = info(c.node_bytes(), c.index_bytes());
                 i.inner_nodes = c.nodes().len();
                 i.leaves = c.leaves();
-                (Built::Cbvh(c), i)
+                i
             }
-            (StructureKind::Bvh4, _) => {
-                let w = Bvh4::from_bvh(bvh, triangles)?;
-                let mut i = info("wide-4", w.node_bytes(), w.index_bytes());
+            Built::Bvh4(w) => {
+                let mut i = info(w.node_bytes(), w.index_bytes());
                 i.inner_nodes = w.inner_nodes();
                 i.leaves = w.leaves();
-                (Built::Bvh4(w), i)
+                i
             }
-            (StructureKind::Bvh8, _) => {
-                let w = Bvh8::from_bvh(bvh, triangles)?;
-                let mut i = info("wide-8", w.node_bytes(), w.index_bytes());
+            Built::Bvh8(w) => {
+                let mut i = info(w.node_bytes(), w.index_bytes());
                 i.inner_nodes = w.inner_nodes();
                 i.leaves = w.leaves();
-                (Built::Bvh8(w), i)
+                i
             }
-            (StructureKind::Brute, _) => {
-                let b = BruteForce::new(triangles);
-                let mut i = info("triangles", 0, b.bytes());
+            Built::Brute(b) => {
+                let mut i = info(0, b.bytes());
                 i.inner_nodes = 0;
                 i.leaves = 1;
-                (Built::Brute(b), i)
+                i
+            }
+            _ => unreachable!("sparse layouts answered above"),
+        }
+    }
+
+    /// Writes the structure's own arrays as sections of a saved file.
+    pub(crate) fn save<'a>(&'a self, s: &mut Sections<'a>) {
+        if let Some(sp) = self.sparse_layout() {
+            return sp.save(s);
+        }
+        match self {
+            Built::Bvh(b) => b.save(s),
+            Built::ImplicitA(a) => a.layout.save(s),
+            Built::ImplicitB(a) => a.layout.save(s),
+            Built::Dst(t) => t.save(s),
+            Built::Bih(b) => b.save(s),
+            Built::Htree(h) => h.save(s),
+            Built::Cbvh(c) => c.save(s),
+            Built::Bvh4(w) => w.save(s),
+            Built::Bvh8(w) => w.save(s),
+            Built::Brute(_) => {}
+            _ => unreachable!("sparse layouts saved above"),
+        }
+    }
+
+    /// Reads a saved structure (`structure` with `traversal` over `layout`,
+    /// as the file's header names them) over `triangles` back from a
+    /// file's sections, checking every invariant its traversal relies on.
+    /// The error says what is wrong.
+    pub(crate) fn load(
+        structure: StructureKind,
+        traversal: TraversalKind,
+        layout: &str,
+        s: &Source<'_>,
+        triangles: Arc<[Triangle]>,
+        opts: &LayoutOptions,
+    ) -> std::result::Result<Built, String> {
+        use StructureKind as S;
+        use TraversalKind as T;
+        check(structure, traversal).map_err(|e| e.to_string())?;
+        let built = match (structure, traversal, layout) {
+            (S::Bvh, T::Stack, "binary") => Built::Bvh(BinaryBvh::load(s, triangles)?),
+            (S::Bvh, T::ImplicitA | T::ImplicitB, "implicit") => {
+                let im = Arc::new(ImplicitBvh::load(
+                    s,
+                    triangles,
+                    opts.implicit_reservation_limit,
+                )?);
+                if traversal == T::ImplicitA {
+                    Built::ImplicitA(OnImplicit::new(im))
+                } else {
+                    Built::ImplicitB(OnImplicit::new(im))
+                }
+            }
+            (S::Bvh, t, "sparse") if !matches!(t, T::ImplicitA | T::ImplicitB) => {
+                Built::sparse(t, Arc::new(SparseBvh::load(s, triangles)?))
+                    .map_err(|e| e.to_string())?
+            }
+            (S::Dst, _, "dual-split") => {
+                Built::Dst(DualSplitTree::load(s, triangles, Rules::IDENTICAL)?)
+            }
+            (S::DstSimilar, _, "dual-split") => {
+                Built::Dst(DualSplitTree::load(s, triangles, Rules::SIMILAR)?)
+            }
+            (S::Bih, _, "bih") => Built::Bih(Bih::load(s, triangles)?),
+            (S::Htree, _, "htree") => Built::Htree(HTree::load(s, triangles)?),
+            (S::Cbvh, _, "compact") => Built::Cbvh(CompactBvh::load(s, triangles)?),
+            (S::Bvh4, _, "wide-4") => Built::Bvh4(Bvh4::load(s, triangles)?),
+            (S::Bvh8, _, "wide-8") => Built::Bvh8(Bvh8::load(s, triangles)?),
+            (S::Brute, _, "triangles") => Built::Brute(BruteForce::new(triangles)),
+            _ => {
+                return Err(format!(
+                    "the header names structure '{}' with traversal '{}' over layout '{layout}', which this raytree does not save",
+                    structure.name(),
+                    traversal.name()
+                ))
             }
         };
-        info.conversion_seconds = start.elapsed().as_secs_f64();
-        Ok((built, info))
+        Ok(built)
     }
 
     /// Traversal `t` over an existing sparse layout; STACK means STACK over

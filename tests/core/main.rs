@@ -16,6 +16,7 @@ mod htree;
 mod image_hashes;
 mod oracle;
 mod paper_workload;
+mod saved;
 mod scenes;
 mod shared_meshes;
 mod soups;

@@ -7,10 +7,11 @@ use raytree::bvh::{BuildOptions, BuildStats, Builder, Bvh};
 use raytree::error::Result;
 use raytree::names::Named;
 use raytree::prelude::Vec3;
+use raytree::saved::{Header, LoadTimes};
 use raytree::scene::{Camera, Fov, Scene};
 use raytree::structures::{Built, LayoutOptions, StructureInfo, StructureKind, TraversalKind};
 use serde::Serialize;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// Which scene, and how to build the canonical BVH.
 #[derive(Args, Clone, Debug)]
@@ -19,16 +20,41 @@ pub struct SceneArgs {
     /// (chess, chess:200k, hairball, hairball:3M), a mesh file (.obj, .ply,
     /// .stl, .gltf, .glb), or mesh files separated by commas (a.obj,b.glb)
     /// loaded as one scene: one geometry per file, and per triangle
-    /// primitive of each mesh instance of a glTF scene.
+    /// primitive of each mesh instance of a glTF scene. Or a structure
+    /// saved by `raytree build` (.rtree): its scene, BVH and structure are
+    /// loaded instead of built.
     #[arg(long, short = 's', default_value = "chess")]
     pub scene: String,
     /// BVH builder: binned SAH, or SAH for the top 8 levels and median
-    /// splits below (the stackless paper's).
-    #[arg(long, value_enum, default_value_t = BuilderArg::Sah)]
-    pub builder: BuilderArg,
-    /// Most triangles in a BVH leaf (1 to 255).
-    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u16).range(1..=255))]
-    pub max_leaf: u16,
+    /// splits below (the stackless paper's) [default: sah; a saved
+    /// structure's own].
+    #[arg(long, value_enum)]
+    pub builder: Option<BuilderArg>,
+    /// Most triangles in a BVH leaf (1 to 255) [default: 8; a saved
+    /// structure's own].
+    #[arg(long, value_parser = clap::value_parser!(u16).range(1..=255))]
+    pub max_leaf: Option<u16>,
+    /// With a saved structure (-s file.rtree): build what the options ask
+    /// for differently from the file (a BVH of another builder or leaf
+    /// size over the file's scene; another structure or traversal, derived
+    /// from the file's BVH) instead of refusing them.
+    #[arg(long)]
+    pub rebuild: bool,
+}
+
+impl SceneArgs {
+    /// The builder asked for, or the default one.
+    pub fn builder(&self) -> Builder {
+        match self.builder {
+            Some(BuilderArg::Hybrid) => Builder::Hybrid,
+            Some(BuilderArg::Sah) | None => Builder::Sah,
+        }
+    }
+
+    /// The leaf size asked for, or the default one.
+    pub fn max_leaf(&self) -> usize {
+        self.max_leaf.map_or(8, usize::from)
+    }
 }
 
 /// The camera, for the commands that render.
@@ -135,18 +161,45 @@ pub enum BuilderArg {
 /// Which structure, and which traversal for `bvh`.
 #[derive(Args, Clone, Debug)]
 pub struct StructureArgs {
-    /// Acceleration structure.
-    #[arg(long, short = 'a', value_parser = named::<StructureKind>(), default_value_t = StructureKind::Bvh)]
-    pub accel: StructureKind,
+    /// Acceleration structure [default: bvh; a saved structure's own].
+    #[arg(long, short = 'a', visible_alias = "structure", value_parser = named::<StructureKind>())]
+    pub accel: Option<StructureKind>,
     /// Traversal algorithm (for --accel bvh). implicit-a and implicit-b run
     /// over the implicit heap layout; sparse, hapala and laine-k over the
-    /// sparse layout with parent links; stack over the 52-byte binary layout.
-    #[arg(long, short = 't', value_parser = named::<TraversalKind>(), default_value_t = TraversalKind::Stack)]
-    pub traversal: TraversalKind,
+    /// sparse layout with parent links; stack over the 52-byte binary
+    /// layout [default: stack; a saved structure's own].
+    #[arg(long, short = 't', value_parser = named::<TraversalKind>())]
+    pub traversal: Option<TraversalKind>,
     /// Most address space the implicit layout may reserve, in GiB (its gaps
     /// are reserved, not resident).
     #[arg(long, default_value_t = 64.0, value_parser = parse_gib)]
     pub implicit_limit: f64,
+}
+
+impl StructureArgs {
+    /// The structure and traversal asked for; what is not given is
+    /// `saved`'s (a saved structure's), or the default.
+    pub fn kinds(
+        &self,
+        saved: Option<(StructureKind, TraversalKind)>,
+    ) -> (StructureKind, TraversalKind) {
+        let (s, t) = saved.unwrap_or((StructureKind::Bvh, TraversalKind::Stack));
+        match (self.accel, self.traversal) {
+            (Some(a), Some(t)) => (a, t),
+            // Another structure than the file's: its own traversal.
+            (Some(a), None) if a != s => (a, TraversalKind::Stack),
+            (Some(a), None) => (a, t),
+            (None, Some(t)) => (s, t),
+            (None, None) => (s, t),
+        }
+    }
+
+    /// The layouts' limits.
+    pub fn layout_options(&self) -> LayoutOptions {
+        LayoutOptions {
+            implicit_reservation_limit: (self.implicit_limit * (1u64 << 30) as f64) as u64,
+        }
+    }
 }
 
 fn parse_gib(s: &str) -> std::result::Result<f64, String> {
@@ -169,6 +222,9 @@ pub struct SceneReport {
     pub geometries: Vec<GeometryReport>,
     /// What the loaders left out or did not apply.
     pub warnings: Vec<String>,
+    /// The saved structure the scene came from, if it did.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub saved: Option<SavedReport>,
 }
 
 /// One geometry of a scene.
@@ -206,6 +262,7 @@ impl SceneReport {
                 })
                 .collect(),
             warnings: scene.warnings.clone(),
+            saved: None,
         }
     }
 }
@@ -219,15 +276,175 @@ pub fn load_spec(spec: &str) -> Result<Scene> {
     Ok(scene)
 }
 
-/// Loads the scene, saying on stderr what its loaders left out.
-pub fn load_scene(args: &SceneArgs) -> Result<(Scene, SceneReport)> {
+/// A structure saved by `raytree build`, loaded in place of a scene.
+pub struct SavedParts {
+    pub header: Header,
+    pub bvh: Bvh,
+    pub built: Built,
+    pub info: StructureInfo,
+}
+
+/// What a report says about a saved structure it loaded.
+#[derive(Serialize)]
+pub struct SavedReport {
+    /// The file.
+    pub file: PathBuf,
+    /// Its header: version, structure, traversal, builder, counts, sections.
+    pub header: Header,
+    /// Mapping, checking and copying it out, in seconds.
+    pub load_seconds: f64,
+    /// Where that time went: mapping, checksums, scene, BVH and structure.
+    pub load_times: LoadTimes,
+    /// What was built anew because the options asked for something the
+    /// file does not hold (--rebuild): "bvh", "structure", or nothing.
+    pub rebuilt: Vec<&'static str>,
+}
+
+/// Loads the scene (or the saved structure) `args` name, saying on
+/// stderr what its loaders left out. `opts` are the limits a saved
+/// structure's layout loads under.
+pub fn load_scene_with(
+    args: &SceneArgs,
+    opts: &LayoutOptions,
+) -> Result<(Scene, SceneReport, Option<SavedParts>)> {
     let start = std::time::Instant::now();
-    let scene = {
-        let _stage = Stage::new(format!("loading {}", args.scene));
-        load_spec(&args.scene)?
+    let path = Path::new(&args.scene);
+    if !raytree::saved::is_saved(path) {
+        let scene = {
+            let _stage = Stage::new(format!("loading {}", args.scene));
+            load_spec(&args.scene)?
+        };
+        let report = SceneReport::new(&scene, start.elapsed().as_secs_f64());
+        return Ok((scene, report, None));
+    }
+    let s = {
+        let _stage = Stage::new(format!("loading the saved structure {}", args.scene));
+        raytree::saved::load(path, opts)?
     };
-    let report = SceneReport::new(&scene, start.elapsed().as_secs_f64());
-    Ok((scene, report))
+    for w in &s.scene.warnings {
+        eprintln!("raytree: warning: {w}");
+    }
+    let seconds = start.elapsed().as_secs_f64();
+    let mut report = SceneReport::new(&s.scene, seconds);
+    report.saved = Some(SavedReport {
+        file: path.into(),
+        header: s.header.clone(),
+        load_seconds: seconds,
+        load_times: s.times,
+        rebuilt: Vec::new(),
+    });
+    let parts = SavedParts {
+        header: s.header,
+        bvh: s.bvh,
+        built: s.built,
+        info: s.info,
+    };
+    Ok((s.scene, report, Some(parts)))
+}
+
+/// [`load_scene_with`] under the default layout limits.
+pub fn load_scene(args: &SceneArgs) -> Result<(Scene, SceneReport, Option<SavedParts>)> {
+    load_scene_with(args, &LayoutOptions::default())
+}
+
+/// The canonical BVH: a saved structure's, or built over `scene` as
+/// `args` ask. A saved structure whose BVH is not what `args` ask for
+/// (another builder or leaf size) is refused unless --rebuild (or
+/// `rebuild`) asks for a new one.
+pub fn bvh_for(
+    scene: &Scene,
+    args: &SceneArgs,
+    saved: Option<Bvh>,
+    report: &mut SceneReport,
+    rebuild: bool,
+) -> Result<(Bvh, BuildStats)> {
+    let Some(bvh) = saved else {
+        return Ok(build_bvh(scene, args));
+    };
+    let mut differs = Vec::new();
+    if args.builder.is_some() && args.builder().name() != bvh.stats.builder {
+        differs.push(format!(
+            "--builder {} (the file's BVH: {})",
+            args.builder().name(),
+            bvh.stats.builder
+        ));
+    }
+    if args.max_leaf.is_some() && args.max_leaf() != bvh.stats.max_leaf_size {
+        differs.push(format!(
+            "--max-leaf {} (the file's BVH: {})",
+            args.max_leaf(),
+            bvh.stats.max_leaf_size
+        ));
+    }
+    if differs.is_empty() {
+        let stats = bvh.stats.clone();
+        return Ok((bvh, stats));
+    }
+    if !(rebuild || args.rebuild) {
+        return Err(raytree::error::Error::Invalid(format!(
+            "{} holds a saved BVH that {} does not match: build a new file (raytree build), drop the option, or add --rebuild to build a new BVH over its scene",
+            args.scene,
+            differs.join(" and ")
+        )));
+    }
+    if let Some(s) = &mut report.saved {
+        s.rebuilt.push("bvh");
+    }
+    Ok(build_bvh(scene, args))
+}
+
+/// The canonical BVH and the structure `st` asks for: a saved
+/// structure's own, or built (the BVH over `scene`, then converted). With
+/// a saved structure, options that ask for another BVH, structure or
+/// traversal are refused unless --rebuild (or `rebuild`) asks to build
+/// them, the structure from the file's BVH where that one is kept.
+pub fn prepare(
+    scene: &Scene,
+    saved: Option<SavedParts>,
+    sa: &SceneArgs,
+    st: &StructureArgs,
+    report: &mut SceneReport,
+    rebuild: bool,
+) -> Result<(Bvh, BuildStats, Built, StructureInfo)> {
+    let Some(parts) = saved else {
+        let (bvh, stats) = build_bvh(scene, sa);
+        let (s, t) = st.kinds(None);
+        let (built, info) = build_structure(scene, &bvh, s, t, st)?;
+        return Ok((bvh, stats, built, info));
+    };
+    let have = (parts.header.structure, parts.header.traversal);
+    let (s, t) = st.kinds(Some(have));
+    raytree::structures::check(s, t)?;
+    let saved_bvh_kept = {
+        let b = &parts.bvh.stats;
+        (sa.builder.is_none() || sa.builder().name() == b.builder)
+            && (sa.max_leaf.is_none() || sa.max_leaf() == b.max_leaf_size)
+    };
+    if (s, t) != have && !(rebuild || sa.rebuild) {
+        let name = |(s, t): (StructureKind, TraversalKind)| {
+            if s == StructureKind::Bvh {
+                format!("{}/{}", s.name(), t.name())
+            } else {
+                s.name().to_string()
+            }
+        };
+        return Err(raytree::error::Error::Invalid(format!(
+            "{} holds a saved {}, but the options ask for {}: build a file for it (raytree build), drop --accel/--traversal, or add --rebuild to derive it from the file's BVH",
+            sa.scene,
+            name(have),
+            name((s, t)),
+        )));
+    }
+    let (bvh, stats) = bvh_for(scene, sa, Some(parts.bvh), report, rebuild)?;
+    if (s, t) == have && saved_bvh_kept {
+        return Ok((bvh, stats, parts.built, parts.info));
+    }
+    drop(parts.built);
+    if let Some(r) = &mut report.saved {
+        r.rebuilt.push("structure");
+    }
+    let (built, info) = build_structure(scene, &bvh, s, t, st)?;
+    Ok((bvh, stats, built, info))
 }
 
 pub fn build_bvh(scene: &Scene, args: &SceneArgs) -> (Bvh, BuildStats) {
@@ -235,11 +452,7 @@ pub fn build_bvh(scene: &Scene, args: &SceneArgs) -> (Bvh, BuildStats) {
         "building the BVH over {} triangles",
         scene.triangles.len()
     ));
-    let builder = match args.builder {
-        BuilderArg::Sah => Builder::Sah,
-        BuilderArg::Hybrid => Builder::Hybrid,
-    };
-    let opts = BuildOptions::new(builder).with_max_leaf_size(args.max_leaf as usize);
+    let opts = BuildOptions::new(args.builder()).with_max_leaf_size(args.max_leaf());
     let bvh = Bvh::build(&scene.triangles, &opts);
     let stats = bvh.stats.clone();
     (bvh, stats)
@@ -247,19 +460,52 @@ pub fn build_bvh(scene: &Scene, args: &SceneArgs) -> (Bvh, BuildStats) {
 
 /// Checks the names before any work is done.
 pub fn check_structure(s: &StructureArgs) -> Result<()> {
-    raytree::structures::check(s.accel, s.traversal)
+    let (a, t) = s.kinds(None);
+    raytree::structures::check(a, t)
 }
 
 pub fn build_structure(
     scene: &Scene,
     bvh: &Bvh,
+    structure: StructureKind,
+    traversal: TraversalKind,
     s: &StructureArgs,
 ) -> Result<(Built, StructureInfo)> {
-    let _stage = Stage::new(format!("converting the BVH to {}", s.accel.name()));
-    let opts = LayoutOptions {
-        implicit_reservation_limit: (s.implicit_limit * (1u64 << 30) as f64) as u64,
-    };
-    Built::with_options(s.accel, s.traversal, bvh, scene.triangles.clone(), &opts)
+    let _stage = Stage::new(format!("converting the BVH to {}", structure.name()));
+    Built::with_options(
+        structure,
+        traversal,
+        bvh,
+        scene.triangles.clone(),
+        &s.layout_options(),
+    )
+}
+
+/// The "saved" line of a report.
+pub fn say_saved(r: &SceneReport) {
+    if let Some(s) = &r.saved {
+        let h = &s.header;
+        super::out::say!(
+            "saved      {}: {}{} over the {} layout, {} BVH, format version {}, {}, loaded in {:.3} s{}",
+            s.file.display(),
+            h.structure.name(),
+            if h.structure == StructureKind::Bvh {
+                format!("/{}", h.traversal.name())
+            } else {
+                String::new()
+            },
+            h.layout,
+            h.builder,
+            h.version,
+            mib(h.file_bytes as usize),
+            s.load_seconds,
+            if s.rebuilt.is_empty() {
+                String::new()
+            } else {
+                format!("; rebuilt: {}", s.rebuilt.join(", "))
+            }
+        );
+    }
 }
 
 /// A clap parser for the names of a [`Named`] type, with their

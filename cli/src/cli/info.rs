@@ -36,8 +36,15 @@ struct Refused {
 }
 
 pub fn run(args: InfoArgs) -> Result<()> {
-    let (scene, scene_report) = common::load_scene(&args.scene)?;
-    let (bvh, bvh_stats) = common::build_bvh(&scene, &args.scene);
+    let (scene, mut scene_report, saved) = common::load_scene(&args.scene)?;
+    // A saved structure's BVH is the one every structure is derived from.
+    let (bvh, bvh_stats) = common::bvh_for(
+        &scene,
+        &args.scene,
+        saved.map(|s| s.bvh),
+        &mut scene_report,
+        false,
+    )?;
     let mut structures = Vec::new();
     let mut refused = Vec::new();
     // One structure at a time, dropped before the next: a big scene needs
@@ -66,6 +73,24 @@ pub fn run(args: InfoArgs) -> Result<()> {
         r.scene.load_seconds
     );
     say!("bounds      {lo:?} .. {hi:?}");
+    if let Some(s) = &r.scene.saved {
+        let h = &s.header;
+        say!(
+            "saved       {}: {}{} over the {} layout, format version {}, {} in {} sections, loaded in {:.3} s",
+            s.file.display(),
+            h.structure.name(),
+            if h.structure == StructureKind::Bvh {
+                format!("/{}", h.traversal.name())
+            } else {
+                String::new()
+            },
+            h.layout,
+            h.version,
+            common::mib(h.file_bytes as usize),
+            h.sections.len(),
+            s.load_seconds
+        );
+    }
     let geometries = &r.scene.geometries;
     say!("geometries  {}", geometries.len());
     // A glTF scene can hold thousands: the first few here, all in --json.

@@ -3,6 +3,7 @@
 //! the files being written, prints one line and exits 130 (128 + SIGINT).
 
 mod bench;
+mod build;
 mod common;
 mod info;
 mod out;
@@ -30,6 +31,10 @@ enum Command {
     Trace(trace::TraceArgs),
     /// Describe a scene, its BVH and every available structure.
     Info(info::InfoArgs),
+    /// Build a structure and save it, with its BVH and scene, to a file
+    /// that trace, render and info load in place of the scene
+    /// (-s file.rtree).
+    Build(build::BuildArgs),
     /// Reproduce the papers' measurements.
     #[command(subcommand)]
     Bench(bench::BenchCommand),
@@ -67,6 +72,7 @@ pub fn main() -> ExitCode {
         Command::Render(a) => render::run(a),
         Command::Trace(a) => trace::run(a),
         Command::Info(a) => info::run(a),
+        Command::Build(a) => build::run(a),
         Command::Bench(c) => bench::run(c),
     });
     match result {

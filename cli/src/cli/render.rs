@@ -202,7 +202,8 @@ pub fn run(args: RenderArgs) -> Result<()> {
 }
 
 fn run_in_pool(args: &RenderArgs) -> Result<()> {
-    let (mut scene, scene_report) = common::load_scene(&args.scene)?;
+    let (mut scene, mut scene_report, saved) =
+        common::load_scene_with(&args.scene, &args.structure.layout_options())?;
     // The stackless paper's AO view of its CHESS scenes, before the options.
     let paper_chess =
         args.paper && args.integrator == IntegratorArg::Ao && scene.use_stackless_view();
@@ -260,8 +261,14 @@ fn run_in_pool(args: &RenderArgs) -> Result<()> {
         (_, Some(s)) => Integrator::Path(s.clone()),
         _ => unreachable!(),
     };
-    let (bvh, bvh_stats) = common::build_bvh(&scene, &args.scene);
-    let (built, info) = common::build_structure(&scene, &bvh, &args.structure)?;
+    let (bvh, bvh_stats, built, info) = common::prepare(
+        &scene,
+        saved,
+        &args.scene,
+        &args.structure,
+        &mut scene_report,
+        false,
+    )?;
     drop(bvh);
     let rendered = built.with(RenderWith {
         scene: &scene,
@@ -314,6 +321,7 @@ fn print_report(r: &RenderReport) {
         r.scene.scene,
         r.scene.triangles
     );
+    common::say_saved(&r.scene);
     say!(
         "bvh        {} builder, {} nodes, depth {}, SAH cost {:.2}, built in {:.3} s",
         b.builder,

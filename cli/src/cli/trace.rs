@@ -125,9 +125,16 @@ pub fn run(args: TraceArgs) -> Result<()> {
     }
     let rays = rayfile::read_rays(&args.rays)?;
     let go = || -> Result<()> {
-        let (scene, scene_report) = common::load_scene(&args.scene)?;
-        let (bvh, bvh_stats) = common::build_bvh(&scene, &args.scene);
-        let (built, info) = common::build_structure(&scene, &bvh, &args.structure)?;
+        let (scene, mut scene_report, saved) =
+            common::load_scene_with(&args.scene, &args.structure.layout_options())?;
+        let (bvh, bvh_stats, built, info) = common::prepare(
+            &scene,
+            saved,
+            &args.scene,
+            &args.structure,
+            &mut scene_report,
+            false,
+        )?;
         drop(bvh);
         let (hits, counters, seconds) = built.with(TraceWith {
             rays: &rays,
@@ -163,6 +170,7 @@ pub fn run(args: TraceArgs) -> Result<()> {
             counters,
             per_ray: counters.per_ray(),
         };
+        common::say_saved(&report.scene);
         say!(
             "traced     {} rays ({} hits) through {} in {:.3} s: {:.2} Mrays/s on {} threads",
             report.rays,

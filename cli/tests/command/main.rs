@@ -10,3 +10,4 @@ mod commands;
 mod field;
 mod paper;
 mod report_browser;
+mod saved;

@@ -83,3 +83,21 @@ impl Accel for Bih {
         self.tree.any_hit(ray, stats)
     }
 }
+
+impl Bih {
+    /// Writes the tree's sections (a dual-split tree's: `dst.*`).
+    pub(crate) fn save<'a>(&'a self, s: &mut crate::saved::Sections<'a>) {
+        self.tree.save(s)
+    }
+
+    /// Reads the tree back and checks it, as a dual-split tree without
+    /// dual-axis nodes.
+    pub(crate) fn load(
+        s: &crate::saved::Source<'_>,
+        triangles: Arc<[Triangle]>,
+    ) -> std::result::Result<Self, String> {
+        Ok(Bih {
+            tree: DualSplitTree::load(s, triangles, Rules::BIH)?,
+        })
+    }
+}

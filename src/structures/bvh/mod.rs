@@ -18,6 +18,7 @@
 //! is kept beside the nodes and not counted in [`Accel::bytes`]: every
 //! structure has it.
 
+mod saved;
 mod stack;
 
 use super::shared::leaf::LAST;

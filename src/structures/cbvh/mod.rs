@@ -30,6 +30,7 @@
 //! traversal visits exactly the nodes STACK visits
 //! (`traverse.rs`).
 
+mod saved;
 mod traverse;
 
 use super::shared::MAX_STACK_DEPTH;
@@ -50,7 +51,7 @@ const INDEX_MASK: u32 = (1 << 28) - 1;
 const OWNER_SHIFT: u32 = 28;
 
 /// One inner node: six planes and two child references (32 bytes).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 #[repr(C, align(32))]
 pub struct CbvhNode {
     /// Per axis xyz, the minimum of the child that does not own the parent's

@@ -12,6 +12,7 @@ pub mod bound;
 pub(crate) mod convert;
 pub mod node;
 pub mod plan;
+mod saved;
 mod traverse;
 
 use self::convert::{convert, triangle_counts, Tree};

@@ -16,6 +16,7 @@
 
 mod convert;
 pub mod node;
+mod saved;
 mod traverse;
 
 use self::convert::{convert_bvh, Tree};

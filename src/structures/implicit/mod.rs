@@ -8,6 +8,7 @@
 //! (`2i + 1`, `2i + 2`) starts on a 64-byte boundary: one cache line.
 //! Nodes are [`OwnBoxNode`]s whose `extra` word holds the canonical id.
 
+mod saved;
 mod traverse;
 
 use super::shared::own_box::{OwnBoxNode, LEAF};
@@ -58,31 +59,7 @@ impl ImplicitBvh {
     /// passes `reservation_limit` bytes, or that the system cannot map.
     pub fn from_bvh(bvh: &Bvh, triangles: Arc<[Triangle]>, reservation_limit: u64) -> Result<Self> {
         let depth = bvh.stats.depth;
-        let advice = "use the hybrid builder (--builder hybrid), whose median splits keep the tree balanced and shallow";
-        if depth > MAX_DEPTH {
-            return Err(Error::Limit(format!(
-                "BVH depth {depth} exceeds the implicit layout's limit of {MAX_DEPTH} levels (32-bit heap indices); {advice}"
-            )));
-        }
-        let slots = 1usize << (depth + 1);
-        let reserved = slots * std::mem::size_of::<OwnBoxNode>();
-        if reserved as u64 > reservation_limit {
-            return Err(Error::Limit(format!(
-                "BVH depth {depth} needs an implicit layout of 2^{} slots × 32 B = {:.1} GiB of address space, beyond the limit of {:.1} GiB; {advice}, or raise the limit",
-                depth + 1,
-                reserved as f64 / (1u64 << 30) as f64,
-                reservation_limit as f64 / (1u64 << 30) as f64
-            )));
-        }
-        let mut map = MmapOptions::new()
-            .len(reserved)
-            .no_reserve_swap()
-            .map_anon()
-            .map_err(|e| {
-                Error::Limit(format!(
-                    "cannot reserve {reserved} bytes of address space for the implicit layout (depth {depth}): {e}; {advice}"
-                ))
-            })?;
+        let (mut map, reserved) = reserve(depth, reservation_limit)?;
         let nodes: &mut [OwnBoxNode] = bytemuck::cast_slice_mut(&mut map[..]);
         let mut index = Vec::with_capacity(bvh.prims.len());
         let mut pages = Vec::with_capacity(bvh.nodes.len());
@@ -166,6 +143,38 @@ impl ImplicitBvh {
     pub fn index_bytes(&self) -> usize {
         self.index.len() * 4
     }
+}
+
+/// The anonymous no-swap-reserve mapping for a tree of `depth` levels
+/// (32 bytes × 2^(depth+1)) and its size; errors as
+/// [`ImplicitBvh::from_bvh`].
+fn reserve(depth: u32, reservation_limit: u64) -> Result<(MmapMut, usize)> {
+    let advice = "use the hybrid builder (--builder hybrid), whose median splits keep the tree balanced and shallow";
+    if depth > MAX_DEPTH {
+        return Err(Error::Limit(format!(
+            "BVH depth {depth} exceeds the implicit layout's limit of {MAX_DEPTH} levels (32-bit heap indices); {advice}"
+        )));
+    }
+    let slots = 1usize << (depth + 1);
+    let reserved = slots * std::mem::size_of::<OwnBoxNode>();
+    if reserved as u64 > reservation_limit {
+        return Err(Error::Limit(format!(
+            "BVH depth {depth} needs an implicit layout of 2^{} slots × 32 B = {:.1} GiB of address space, beyond the limit of {:.1} GiB; {advice}, or raise the limit",
+            depth + 1,
+            reserved as f64 / (1u64 << 30) as f64,
+            reservation_limit as f64 / (1u64 << 30) as f64
+        )));
+    }
+    let map = MmapOptions::new()
+        .len(reserved)
+        .no_reserve_swap()
+        .map_anon()
+        .map_err(|e| {
+            Error::Limit(format!(
+                "cannot reserve {reserved} bytes of address space for the implicit layout (depth {depth}): {e}; {advice}"
+            ))
+        })?;
+    Ok((map, reserved))
 }
 
 /// An algorithm over the implicit layout.

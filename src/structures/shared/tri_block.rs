@@ -19,12 +19,12 @@ use crate::stats::{Stats, Tally};
 /// Triangles per block.
 pub const LANES: usize = 4;
 /// The entry of an unused lane (after the leaf's last triangle).
-const EMPTY: u32 = u32::MAX;
+pub(crate) const EMPTY: u32 = u32::MAX;
 
 /// Four triangles: `v[3·vertex + axis][lane]` (vertices a, b, c; axes x, y,
 /// z) and their entries in the sign-terminated leaf list (`LAST` on the
 /// leaf's last triangle; `u32::MAX` in unused lanes after it). 160 bytes.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 #[repr(C, align(16))]
 pub struct TriBlock {
     /// Vertex coordinates, one row per vertex axis, one lane per triangle.

@@ -8,6 +8,7 @@
 
 mod hapala;
 mod laine;
+mod saved;
 #[allow(clippy::module_inception)]
 mod sparse;
 mod stack;

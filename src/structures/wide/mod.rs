@@ -23,6 +23,7 @@
 //!   farther than the closest hit are skipped.
 
 mod collapse;
+mod saved;
 mod traverse;
 
 use super::shared::tri_block::{self, TriBlock};
