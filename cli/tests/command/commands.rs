@@ -1,7 +1,6 @@
 //! Tests that run the `raytree` binary.
 
-#[path = "../../../tests/core/common.rs"]
-mod common;
+use crate::common;
 
 use crate::support;
 

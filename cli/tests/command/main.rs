@@ -4,6 +4,8 @@
 //! (`report_browser`). The peers' tests (`tests/peers.rs`) stay apart, so
 //! that CI can build them with Embree alone.
 
+#[path = "../../../tests/core/common.rs"]
+mod common;
 mod support;
 
 mod commands;

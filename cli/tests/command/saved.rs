@@ -3,8 +3,7 @@
 //! options that ask for something else are refused unless --rebuild; bad
 //! files fail with one line naming them.
 
-#[path = "../../../tests/core/common.rs"]
-mod common;
+use crate::common;
 
 use crate::support::*;
 use raytree::prelude::*;
