@@ -142,7 +142,7 @@ def main() -> None:
         TriangleMesh(scene=em, vertices=scene.vertices, indices=scene.triangles.astype(np.int32))
         o, d = np.ascontiguousarray(rays[:, :3]), np.ascontiguousarray(rays[:, 3:])
         found = em.run(o, d)
-        ids["embreex"] = np.where(found < 0, raytree.INVALID_ID, found)
+        ids["embreex"] = np.where(found < 0, np.int64(raytree.INVALID_ID), found.astype(np.int64))
 
         def embree(t):
             return best(lambda: em.run(o, d), 1)
@@ -174,13 +174,13 @@ def main() -> None:
             trimesh_native,
             [1],
         )
-        ours = raytree.RayMeshIntersector(mesh)
+        ours = raytree.RayMeshIntersector(mesh, structure=args.structure)
         ours.intersects_first(sub[:10, :3], sub[:10, 3:])
 
         def trimesh_raytree(t):
             return best(lambda: ours.intersects_first(rays[:, :3], rays[:, 3:]), 1)
 
-        contenders["trimesh API over raytree (RayMeshIntersector, all threads)"] = (
+        contenders[f"trimesh API over raytree (RayMeshIntersector {args.structure}, all threads)"] = (
             trimesh_raytree,
             [os.cpu_count()],
         )
