@@ -105,7 +105,7 @@ def test_contiguous_rays_are_not_copied(chess, dtype):
 
 def test_the_gil_is_released(chess):
     accel = raytree.Accelerator(chess, "brute")
-    rays = make_rays(chess, 3000)
+    rays = make_rays(chess, 15000)  # about 0.3 s on one thread
     ticks = []
     done = threading.Event()
 
