@@ -158,6 +158,13 @@ impl Mesh {
             Some("gltf" | "glb") => {
                 super::gltf::parse(bytes, path, options.gltf_scene, &mut report)?
             }
+            _ if bytes.starts_with(&crate::saved::MAGIC) => {
+                return Err(Error::Parse {
+                    path: path.into(),
+                    line: None,
+                    message: "a saved structure (raytree build), not a mesh: trace, render and info take it with -s in place of a scene; other commands need the scene itself".into(),
+                })
+            }
             _ => {
                 return Err(Error::Parse {
                     path: path.into(),

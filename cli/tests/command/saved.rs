@@ -265,6 +265,12 @@ fn bad_saved_files_fail_with_one_line_naming_them() {
         fails(&with("missing.rtree"), d, "missing.rtree");
     }
     assert!(!d.join("h.bin").exists() && !d.join("x.png").exists());
+    // Commands that need the scene itself say so rather than "unknown format".
+    fails(
+        &["bench", "dst", "-s", "s.rtree"],
+        d,
+        "s.rtree: a saved structure (raytree build), not a mesh",
+    );
     fails(
         &["build", "-s", "chess:1000", "-o", "-"],
         d,
