@@ -305,6 +305,11 @@ pub fn leaf_run(index: &[u32], first: u32, triangles: usize, what: &str) -> Resu
                 index.len()
             )
         })?;
+    if first > 0 && index[first as usize - 1] & LAST == 0 {
+        return Err(format!(
+            "{what}: a leaf begins at index-list position {first}, inside another leaf's run"
+        ));
+    }
     for (k, &e) in run.iter().enumerate() {
         if (e & !LAST) as usize >= triangles {
             return Err(format!(

@@ -22,6 +22,7 @@ mod saved;
 mod stack;
 
 use super::shared::leaf::LAST;
+use super::shared::tri_block::LeafBlocks;
 use super::shared::MAX_STACK_DEPTH;
 use super::Accel;
 use crate::bvh::{Bvh, NodeKind, ROOT};
@@ -52,6 +53,8 @@ pub type NodeRef = u32;
 pub struct BinaryBvh {
     pub(crate) words: Vec<u32>,
     pub(crate) index: Vec<u32>,
+    /// The leaf list's triangles in blocks, as the traversal tests them.
+    pub(crate) blocks: LeafBlocks,
     pub(crate) root: NodeRef,
     pub(crate) root_bounds: Aabb,
     pub(crate) triangles: Arc<[Triangle]>,
@@ -87,6 +90,7 @@ impl BinaryBvh {
         let mut b = BinaryBvh {
             words: Vec::with_capacity(words_needed),
             index: Vec::with_capacity(bvh.prims.len()),
+            blocks: LeafBlocks::default(),
             root: 0,
             root_bounds: bvh.bounds(),
             triangles,
@@ -99,6 +103,7 @@ impl BinaryBvh {
         b.root = b.place(bvh, ROOT);
         b.fill(bvh, ROOT, b.root);
         debug_assert_eq!(b.words.len(), words_needed);
+        b.blocks = LeafBlocks::new(&b.index, &b.triangles);
         Ok(b)
     }
 

@@ -11,6 +11,7 @@ use super::{BinaryBvh, INNER_WORDS, LEFT_LEAF, OFFSET_MASK, RIGHT_LEAF};
 use crate::geometry::{Aabb, Triangle};
 use crate::saved::{leaf_run, Bits, RecordWriter, Sections, Source};
 use crate::structures::shared::leaf::LAST;
+use crate::structures::shared::tri_block::LeafBlocks;
 use crate::structures::shared::MAX_STACK_DEPTH;
 use std::sync::Arc;
 
@@ -105,9 +106,11 @@ impl BinaryBvh {
             ));
         }
         let offsets = starts.iter().map(|i| i as u32).collect();
+        let blocks = LeafBlocks::new(&index, &triangles);
         Ok(BinaryBvh {
             words,
             index,
+            blocks,
             root,
             root_bounds,
             triangles,

@@ -9,7 +9,7 @@ use super::{
 };
 use crate::geometry::{Hit, Ray};
 use crate::stats::Stats;
-use crate::structures::shared::leaf::{enter, intersect_leaf};
+use crate::structures::shared::leaf::enter;
 use crate::structures::shared::own_box::Children;
 use crate::structures::shared::with_stack;
 
@@ -44,10 +44,9 @@ fn trace_n<S: Stats, const ANY: bool, const N: usize>(
         }
         if node & LAST != 0 {
             let first = words[(node & !LAST) as usize];
-            if intersect_leaf::<ANY, S>(
-                &bvh.index,
-                &bvh.triangles,
+            if bvh.blocks.intersect::<ANY, S>(
                 first,
+                &bvh.triangles,
                 ray,
                 &mut tmax,
                 &mut best,

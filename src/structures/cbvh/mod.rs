@@ -39,6 +39,7 @@ use crate::bvh::{Bvh, NodeKind, ROOT};
 use crate::error::{Error, Result};
 use crate::geometry::{Aabb, Hit, Ray, Triangle};
 use crate::stats::Stats;
+use crate::structures::shared::tri_block::LeafBlocks;
 use std::sync::Arc;
 
 use super::shared::leaf::LAST;
@@ -122,6 +123,8 @@ impl CbvhNode {
 pub struct CompactBvh {
     pub(crate) nodes: Vec<CbvhNode>,
     pub(crate) index: Vec<u32>,
+    /// The leaf list's triangles in blocks, as the traversal tests them.
+    pub(crate) blocks: LeafBlocks,
     /// The root's reference: node 0, or a leaf when the BVH is one leaf.
     pub(crate) root: u32,
     pub(crate) root_bounds: Aabb,
@@ -169,6 +172,7 @@ impl CompactBvh {
         let mut c = CompactBvh {
             nodes: Vec::with_capacity(bvh.stats.inner_nodes),
             index: Vec::with_capacity(bvh.prims.len()),
+            blocks: LeafBlocks::default(),
             root: 0,
             root_bounds: bvh.bounds(),
             triangles,
@@ -179,6 +183,7 @@ impl CompactBvh {
         if !bvh.prims.is_empty() {
             c.root = c.place(bvh, ROOT);
         }
+        c.blocks = LeafBlocks::new(&c.index, &c.triangles);
         Ok(c)
     }
 

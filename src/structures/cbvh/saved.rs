@@ -11,6 +11,7 @@
 use super::{CbvhNode, CompactBvh, INDEX_MASK, LEAF};
 use crate::geometry::{Aabb, Triangle};
 use crate::saved::{leaf_ids_match, leaf_run, Bits, RecordWriter, Sections, Source};
+use crate::structures::shared::tri_block::LeafBlocks;
 use crate::structures::shared::MAX_STACK_DEPTH;
 use std::sync::Arc;
 
@@ -103,9 +104,11 @@ impl CompactBvh {
             ));
         }
         leaf_ids_match(&leaf_ids, &starts, leaves, "cbvh.leaf-ids")?;
+        let blocks = LeafBlocks::new(&index, &triangles);
         Ok(CompactBvh {
             nodes,
             index,
+            blocks,
             root,
             root_bounds,
             triangles,

@@ -13,7 +13,7 @@
 use super::{CbvhNode, CompactBvh, INDEX_MASK, LEAF, OWNER_SHIFT};
 use crate::geometry::{Hit, Ray};
 use crate::stats::Stats;
-use crate::structures::shared::leaf::{enter, intersect_leaf};
+use crate::structures::shared::leaf::enter;
 use crate::structures::shared::with_stack;
 use glam::{BVec4A, Vec4, Vec4Swizzles};
 
@@ -72,10 +72,9 @@ fn trace_n<S: Stats, const ANY: bool, const N: usize>(
             stats.visit(c.canonical_id(node));
         }
         if node & LEAF != 0 {
-            if intersect_leaf::<ANY, S>(
-                &c.index,
-                &c.triangles,
+            if c.blocks.intersect::<ANY, S>(
                 node & INDEX_MASK,
+                &c.triangles,
                 ray,
                 &mut tmax,
                 &mut best,

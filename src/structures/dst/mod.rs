@@ -24,6 +24,7 @@ use crate::bvh::{Bvh, ROOT};
 use crate::error::{Error, Result};
 use crate::geometry::{Aabb, Hit, Ray, Triangle};
 use crate::stats::Stats;
+use crate::structures::shared::tri_block::LeafBlocks;
 use serde::Serialize;
 use std::sync::Arc;
 
@@ -76,6 +77,8 @@ impl DstStats {
 pub struct DualSplitTree {
     pub(crate) words: Vec<u32>,
     pub(crate) index: Vec<u32>,
+    /// The leaf list's triangles in blocks, as the traversal tests them.
+    pub(crate) blocks: LeafBlocks,
     pub(crate) triangles: Arc<[Triangle]>,
     pub(crate) root_bounds: Aabb,
     rules: Rules,
@@ -116,6 +119,7 @@ impl DualSplitTree {
         let mut t = DualSplitTree {
             words: Vec::new(),
             index: Vec::with_capacity(bvh.prims.len()),
+            blocks: LeafBlocks::default(),
             triangles,
             root_bounds: bvh.bounds(),
             rules,
@@ -126,6 +130,7 @@ impl DualSplitTree {
             let root = t.reserve(&tree);
             t.fill(bvh, &tree, root)?;
         }
+        t.blocks = LeafBlocks::new(&t.index, &t.triangles);
         count(&tree, &mut t.stats, None);
         t.stats.node_bytes = t.words.len() * 4;
         t.stats.index_bytes = t.index.len() * 4;

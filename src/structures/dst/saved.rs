@@ -14,6 +14,7 @@ use super::plan::Rules;
 use super::{DstStats, DualSplitTree};
 use crate::geometry::{Aabb, Triangle};
 use crate::saved::{leaf_run, Bits, RecordWriter, Sections, Source};
+use crate::structures::shared::tri_block::LeafBlocks;
 use crate::structures::shared::MAX_STACK_DEPTH;
 use std::sync::Arc;
 
@@ -138,9 +139,11 @@ impl DualSplitTree {
         stats.index_bytes = index.len() * 4;
         stats.least_identical_bytes = least_identical_bytes;
         stats.conversion_seconds = conversion_seconds;
+        let blocks = LeafBlocks::new(&index, &triangles);
         Ok(DualSplitTree {
             words,
             index,
+            blocks,
             triangles,
             root_bounds,
             rules,

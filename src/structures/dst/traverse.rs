@@ -19,7 +19,7 @@ use super::DualSplitTree;
 use crate::geometry::{Hit, Ray};
 use crate::stats::Stats;
 use crate::structures::shared::interval::{next_child, nonempty, pop_live, split_children};
-use crate::structures::shared::leaf::{enter_interval, intersect_leaf};
+use crate::structures::shared::leaf::enter_interval;
 use crate::structures::shared::with_stack;
 
 #[inline]
@@ -90,10 +90,9 @@ fn trace_n<S: Stats, const ANY: bool, const N: usize>(
                 node += offset as usize;
                 continue;
             }
-            if intersect_leaf::<ANY, S>(
-                &dst.index,
-                &dst.triangles,
+            if dst.blocks.intersect::<ANY, S>(
                 offset,
+                &dst.triangles,
                 ray,
                 &mut best_t,
                 &mut best,

@@ -27,6 +27,7 @@ use crate::bvh::Bvh;
 use crate::error::{Error, Result};
 use crate::geometry::{Aabb, Hit, Ray, Triangle};
 use crate::stats::Stats;
+use crate::structures::shared::tri_block::LeafBlocks;
 use serde::Serialize;
 use std::sync::Arc;
 
@@ -64,6 +65,8 @@ impl HtreeStats {
 pub struct HTree {
     pub(crate) words: Vec<u32>,
     pub(crate) index: Vec<u32>,
+    /// The leaf list's triangles in blocks, as the traversal tests them.
+    pub(crate) blocks: LeafBlocks,
     pub(crate) triangles: Arc<[Triangle]>,
     pub(crate) root_bounds: Aabb,
     /// A bound on the traversal stack: split nodes on any path.
@@ -88,6 +91,7 @@ impl HTree {
         let mut h = HTree {
             words: Vec::new(),
             index: Vec::with_capacity(bvh.prims.len()),
+            blocks: LeafBlocks::default(),
             triangles,
             root_bounds: bvh.bounds(),
             depth: bvh.stats.depth,
@@ -97,6 +101,7 @@ impl HTree {
             let tree = convert_bvh(bvh);
             h.emit(bvh, &tree)?;
         }
+        h.blocks = LeafBlocks::new(&h.index, &h.triangles);
         h.stats.node_bytes = h.words.len() * 4;
         h.stats.index_bytes = h.index.len() * 4;
         h.stats.conversion_seconds = start.elapsed().as_secs_f64();

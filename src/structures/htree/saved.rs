@@ -12,6 +12,7 @@ use super::node::HNode;
 use super::{HTree, HtreeStats};
 use crate::geometry::{Aabb, Triangle};
 use crate::saved::{leaf_run, Bits, RecordWriter, Sections, Source};
+use crate::structures::shared::tri_block::LeafBlocks;
 use crate::structures::shared::MAX_STACK_DEPTH;
 use std::sync::Arc;
 
@@ -97,9 +98,11 @@ impl HTree {
         stats.node_bytes = words.len() * 4;
         stats.index_bytes = index.len() * 4;
         stats.conversion_seconds = conversion_seconds;
+        let blocks = LeafBlocks::new(&index, &triangles);
         Ok(HTree {
             words,
             index,
+            blocks,
             triangles,
             root_bounds,
             depth,

@@ -14,7 +14,7 @@ use crate::stats::Stats;
 use crate::structures::shared::interval::{
     face_code, next_child, nonempty, pop_live, split_children,
 };
-use crate::structures::shared::leaf::{enter_interval, intersect_leaf};
+use crate::structures::shared::leaf::enter_interval;
 use crate::structures::shared::with_stack;
 
 #[inline]
@@ -73,10 +73,9 @@ fn trace_n<S: Stats, const ANY: bool, const N: usize>(
                 }
             }
             _ => {
-                if intersect_leaf::<ANY, S>(
-                    &h.index,
-                    &h.triangles,
+                if h.blocks.intersect::<ANY, S>(
                     w & LEAF_MASK,
+                    &h.triangles,
                     ray,
                     &mut best_t,
                     &mut best,

@@ -18,6 +18,7 @@ use crate::error::{Error, Result};
 use crate::geometry::{Aabb, Triangle};
 use crate::geometry::{Hit, Ray};
 use crate::stats::Stats;
+use crate::structures::shared::tri_block::LeafBlocks;
 use memmap2::{MmapMut, MmapOptions};
 use std::marker::PhantomData;
 use std::sync::Arc;
@@ -36,6 +37,8 @@ const PAGE: usize = 4096;
 pub struct ImplicitBvh {
     map: MmapMut,
     pub(crate) index: Vec<u32>,
+    /// The leaf list's triangles in blocks, as the traversals test them.
+    pub(crate) blocks: LeafBlocks,
     pub(crate) triangles: Arc<[Triangle]>,
     reserved: usize,
     resident: usize,
@@ -91,9 +94,11 @@ impl ImplicitBvh {
         }
         pages.sort_unstable();
         pages.dedup();
+        let blocks = LeafBlocks::new(&index, &triangles);
         Ok(ImplicitBvh {
             map,
             index,
+            blocks,
             triangles,
             reserved,
             resident: pages.len() * PAGE,

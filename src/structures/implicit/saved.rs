@@ -12,6 +12,7 @@ use super::{reserve, ImplicitBvh, PAGE};
 use crate::geometry::Triangle;
 use crate::saved::{leaf_run, Sections, Source};
 use crate::structures::shared::own_box::OwnBoxNode;
+use crate::structures::shared::tri_block::LeafBlocks;
 use std::sync::Arc;
 
 impl ImplicitBvh {
@@ -106,9 +107,11 @@ impl ImplicitBvh {
                 last_page = page;
             }
         }
+        let blocks = LeafBlocks::new(&index, &triangles);
         Ok(ImplicitBvh {
             map,
             index,
+            blocks,
             triangles,
             reserved,
             resident: pages * PAGE,

@@ -2,7 +2,8 @@
 //! box, so that an inner node's children are tested by reading the two
 //! adjacent sibling nodes.
 
-use super::leaf::{enter, intersect_leaf};
+use super::leaf::enter;
+use super::tri_block::LeafBlocks;
 use crate::geometry::{BoxRay, Hit, Ray, Triangle};
 use crate::stats::{Stats, Tally};
 use bytemuck::{Pod, Zeroable};
@@ -128,20 +129,20 @@ pub struct Walk<'a, const ANY: bool> {
     best: Option<Hit>,
     tally: Tally,
     nodes: &'a [OwnBoxNode],
-    index: &'a [u32],
+    leaves: &'a LeafBlocks,
     triangles: &'a [Triangle],
 }
 
 impl<'a, const ANY: bool> Walk<'a, ANY> {
     /// Tests the root box `nodes[root]` (6 plane tests); `None` when the ray
-    /// misses it (its tally then handed to `stats`). `index` is the
-    /// sign-terminated leaf list and `triangles` the mesh's.
+    /// misses it (its tally then handed to `stats`). `leaves` holds the
+    /// leaf list's triangle blocks and `triangles` the mesh's.
     #[inline(always)]
     pub fn enter<S: Stats>(
         ray: &'a Ray,
         nodes: &'a [OwnBoxNode],
         root: usize,
-        index: &'a [u32],
+        leaves: &'a LeafBlocks,
         triangles: &'a [Triangle],
         stats: &mut S,
     ) -> Option<Self> {
@@ -154,7 +155,7 @@ impl<'a, const ANY: bool> Walk<'a, ANY> {
             best: None,
             tally,
             nodes,
-            index,
+            leaves,
             triangles,
         })
     }
@@ -177,10 +178,9 @@ impl<'a, const ANY: bool> Walk<'a, ANY> {
             stats.visit(id());
         }
         if n.is_leaf() {
-            if intersect_leaf::<ANY, S>(
-                self.index,
-                self.triangles,
+            if self.leaves.intersect::<ANY, S>(
                 n.target(),
+                self.triangles,
                 self.ray,
                 &mut self.tmax,
                 &mut self.best,

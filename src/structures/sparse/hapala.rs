@@ -7,7 +7,7 @@
 use super::{sibling, SparseBvh};
 use crate::geometry::{Hit, Ray};
 use crate::stats::Stats;
-use crate::structures::shared::leaf::{enter, intersect_leaf};
+use crate::structures::shared::leaf::enter;
 use crate::structures::shared::own_box::OwnBoxNode;
 
 #[derive(Clone, Copy, PartialEq, Eq)]
@@ -47,10 +47,9 @@ pub fn trace<S: Stats, const ANY: bool>(sp: &SparseBvh, ray: &Ray, stats: &mut S
         stats.visit(sp.ids[0]);
     }
     if nodes[0].is_leaf() {
-        intersect_leaf::<ANY, S>(
-            &sp.index,
-            &sp.triangles,
+        sp.blocks.intersect::<ANY, S>(
             nodes[0].target(),
+            &sp.triangles,
             ray,
             &mut tmax,
             &mut best,
@@ -93,10 +92,9 @@ pub fn trace<S: Stats, const ANY: bool>(sp: &SparseBvh, ray: &Ray, stats: &mut S
                 if S::LOGS {
                     stats.visit(sp.ids[cur as usize]);
                 }
-                if intersect_leaf::<ANY, S>(
-                    &sp.index,
-                    &sp.triangles,
+                if sp.blocks.intersect::<ANY, S>(
                     n.target(),
+                    &sp.triangles,
                     ray,
                     &mut tmax,
                     &mut best,

@@ -25,7 +25,7 @@ pub fn trace<S: Stats, const ANY: bool, const K: usize>(
     if sp.is_empty() {
         return None;
     }
-    let mut w = Walk::<ANY>::enter(ray, &sp.nodes, 0, &sp.index, &sp.triangles, stats)?;
+    let mut w = Walk::<ANY>::enter(ray, &sp.nodes, 0, &sp.blocks, &sp.triangles, stats)?;
     let mut node = 0u32;
     let (mut trail, mut level, mut pop_level) = (0u64, ROOT_LEVEL, 0u64);
     // Short stack; when full, the oldest entry is dropped.

@@ -20,6 +20,7 @@ use crate::error::{Error, Result};
 use crate::geometry::{Aabb, Triangle};
 use crate::geometry::{Hit, Ray};
 use crate::stats::Stats;
+use crate::structures::shared::tri_block::LeafBlocks;
 use std::marker::PhantomData;
 use std::sync::Arc;
 
@@ -35,6 +36,8 @@ const NO_PARENT: u32 = PARENT_MASK;
 pub struct SparseBvh {
     pub(crate) nodes: Vec<OwnBoxNode>,
     pub(crate) index: Vec<u32>,
+    /// The leaf list's triangles in blocks, as the traversals test them.
+    pub(crate) blocks: LeafBlocks,
     pub(crate) triangles: Arc<[Triangle]>,
     /// Canonical id of each node (read by visit logs only).
     pub(crate) ids: Vec<u32>,
@@ -56,6 +59,7 @@ impl SparseBvh {
         let mut s = SparseBvh {
             nodes: Vec::with_capacity(bvh.nodes.len()),
             index: Vec::with_capacity(bvh.prims.len()),
+            blocks: LeafBlocks::default(),
             triangles,
             ids: Vec::with_capacity(bvh.nodes.len()),
             depth: bvh.stats.depth,
@@ -63,6 +67,7 @@ impl SparseBvh {
         };
         s.push(bvh, ROOT, NO_PARENT);
         s.fill(bvh, 0);
+        s.blocks = LeafBlocks::new(&s.index, &s.triangles);
         Ok(s)
     }
 

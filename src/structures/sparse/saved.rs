@@ -11,6 +11,7 @@ use super::{SparseBvh, NO_PARENT, PARENT_MASK};
 use crate::geometry::Triangle;
 use crate::saved::{leaf_run, Bits, Sections, Source};
 use crate::structures::shared::own_box::OwnBoxNode;
+use crate::structures::shared::tri_block::LeafBlocks;
 use std::sync::Arc;
 
 impl SparseBvh {
@@ -73,9 +74,11 @@ impl SparseBvh {
                 inner * 2 + 1
             ));
         }
+        let blocks = LeafBlocks::new(&index, &triangles);
         Ok(SparseBvh {
             nodes,
             index,
+            blocks,
             triangles,
             ids,
             depth,

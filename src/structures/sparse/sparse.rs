@@ -15,7 +15,7 @@ pub fn trace<S: Stats, const ANY: bool>(sp: &SparseBvh, ray: &Ray, stats: &mut S
     if sp.is_empty() {
         return None;
     }
-    let mut w = Walk::<ANY>::enter(ray, &sp.nodes, 0, &sp.index, &sp.triangles, stats)?;
+    let mut w = Walk::<ANY>::enter(ray, &sp.nodes, 0, &sp.blocks, &sp.triangles, stats)?;
     let (mut node, mut level_index) = (0u32, 0u64);
     loop {
         match w.step(

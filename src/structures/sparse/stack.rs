@@ -23,7 +23,7 @@ fn trace_n<S: Stats, const ANY: bool, const N: usize>(
     if sp.is_empty() {
         return None;
     }
-    let mut w = Walk::<ANY>::enter(ray, &sp.nodes, 0, &sp.index, &sp.triangles, stats)?;
+    let mut w = Walk::<ANY>::enter(ray, &sp.nodes, 0, &sp.blocks, &sp.triangles, stats)?;
     let mut stack = [0u32; N];
     let mut top = 0;
     let mut node = 0u32;
