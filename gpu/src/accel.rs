@@ -3,6 +3,7 @@
 use crate::{Gpu, GpuError, Kernel, Result};
 use raytree::geometry::{Hit, Ray, Triangle};
 use raytree::stats::{Counters, Tally};
+use raytree::structures::shared::own_box::OwnBoxNode;
 use raytree::structures::{stack_capacity, Accel, Built, WithAccel};
 use std::time::Instant;
 use wgpu::util::DeviceExt;
@@ -112,14 +113,57 @@ fn upload_of(built: &Built) -> Result<Upload<'_>> {
         B::Laine2(s) => sparse(Kernel::Laine(2), &s.layout),
         B::Laine4(s) => sparse(Kernel::Laine(4), &s.layout),
         B::Laine8(s) => sparse(Kernel::Laine(8), &s.layout),
+        B::Dst(d) => Upload {
+            kernel: Kernel::Dst,
+            nodes: d.words(),
+            index: d.index_list(),
+            triangles: d.triangles(),
+            root: 0,
+            bounds: d.root_bounds().to_array(),
+            empty: d.is_empty(),
+            depth: d.depth(),
+        },
+        B::ImplicitB(s) => {
+            let l = &s.layout;
+            let slots = l.slots();
+            Upload {
+                kernel: Kernel::ImplicitB,
+                nodes: bytemuck::cast_slice(&slots[..implicit_used(slots, l.is_empty())]),
+                index: l.index(),
+                triangles: l.triangles(),
+                root: 1,
+                bounds: l.bounds().to_array(),
+                empty: l.is_empty(),
+                depth: 0,
+            }
+        }
         other => {
             return Err(GpuError::Unsupported(format!(
                 "the {} structure ({})",
                 other.kind().0.name(),
-                "GPU kernels exist for bvh with stack, sparse, hapala and laine-k"
+                "GPU kernels exist for bvh with stack, sparse, implicit-b, hapala and laine-k, and for dst and dst-similar"
             )))
         }
     })
+}
+
+/// The slots of the implicit layout up to its last node (the gaps before it
+/// included, as zeros), found by a walk over the nodes alone: the mapping
+/// reserves far more.
+fn implicit_used(slots: &[OwnBoxNode], empty: bool) -> usize {
+    if empty {
+        return 2;
+    }
+    let mut last = 1;
+    let mut todo = vec![1usize];
+    while let Some(s) = todo.pop() {
+        last = last.max(s);
+        if !slots[s].is_leaf() {
+            todo.extend([2 * s, 2 * s + 1]);
+        }
+    }
+    // Whole sibling pairs.
+    (last | 1) + 1
 }
 
 /// Whether `built` has a GPU kernel.

@@ -1,6 +1,9 @@
 //! The WGSL kernels: the shared prelude and one file per traversal.
 
-use raytree::geometry::{ILL_CONDITIONED, ROBUST_WIDENING, TINY_DETERMINANT, TINY_SCALE};
+use raytree::geometry::{
+    ILL_CONDITIONED, ROBUST_WIDENING, TINY_DETERMINANT, TINY_SCALE, WIDENING_STEP,
+};
+use raytree::structures::shared::interval::SLACK;
 use raytree::structures::shared::leaf::TIE_MARGIN;
 
 const PRELUDE: &str = include_str!("wgsl/prelude.wgsl");
@@ -9,6 +12,8 @@ const SPARSE_STACK: &str = include_str!("wgsl/sparse_stack.wgsl");
 const SPARSE: &str = include_str!("wgsl/sparse.wgsl");
 const HAPALA: &str = include_str!("wgsl/hapala.wgsl");
 const LAINE: &str = include_str!("wgsl/laine.wgsl");
+const IMPLICIT_B: &str = include_str!("wgsl/implicit_b.wgsl");
+const DST: &str = include_str!("wgsl/dst.wgsl");
 
 /// The f64 edge functions of the CPU's triangle test: both products are
 /// exact in f64 (24-bit by 24-bit significands), so the difference is
@@ -34,6 +39,11 @@ pub enum Kernel {
     Sparse,
     /// HAPALA over parent links (`structures/sparse/hapala.rs`).
     Hapala,
+    /// IMPLICIT-B, Algorithm 3, over the implicit heap layout (`structures/implicit/traverse.rs`).
+    ImplicitB,
+    /// The dual-split tree's Algorithm 1 (`structures/dst/traverse.rs`),
+    /// identical or similar conversion alike.
+    Dst,
     /// LAINE-k with a short stack of `k` entries (`structures/sparse/laine.rs`).
     Laine(u32),
 }
@@ -47,6 +57,8 @@ impl Kernel {
             Kernel::Sparse => "sparse.wgsl",
             Kernel::Hapala => "hapala.wgsl",
             Kernel::Laine(_) => "laine.wgsl",
+            Kernel::ImplicitB => "implicit_b.wgsl",
+            Kernel::Dst => "dst.wgsl",
         }
     }
 
@@ -66,6 +78,8 @@ impl Kernel {
             Kernel::Sparse => SPARSE.to_string(),
             Kernel::Hapala => HAPALA.to_string(),
             Kernel::Laine(k) => LAINE.replace("SHORT_K", &format!("{k}u")),
+            Kernel::ImplicitB => IMPLICIT_B.to_string(),
+            Kernel::Dst => DST.to_string(),
         };
         let consts = [
             ("ILL_CONDITIONED", ILL_CONDITIONED),
@@ -73,6 +87,8 @@ impl Kernel {
             ("TINY_DETERMINANT", TINY_DETERMINANT),
             ("ROBUST_WIDENING", ROBUST_WIDENING),
             ("TIE_MARGIN", TIE_MARGIN),
+            ("WIDENING_STEP", WIDENING_STEP),
+            ("SLACK", SLACK),
         ]
         .map(|(name, v)| format!("const {name}: f32 = {};\n", hex_f32(v)))
         .concat();

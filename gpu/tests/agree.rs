@@ -83,6 +83,21 @@ fn check_scene(gpu: &Gpu, scene: &Scene, n: usize) {
         let (binary, _) =
             Built::new(StructureKind::Bvh, TraversalKind::Stack, &bvh, tris.clone()).unwrap();
         check(gpu, &binary, &rays, &what("stack-binary"));
+        if builder == Builder::Hybrid {
+            // IMPLICIT-B over the hybrid builder's implicit layout, as the paper.
+            let (implicit, _) = Built::new(
+                StructureKind::Bvh,
+                TraversalKind::ImplicitB,
+                &bvh,
+                tris.clone(),
+            )
+            .unwrap();
+            check(gpu, &implicit, &rays, &what("implicit-b"));
+        }
+        for kind in [StructureKind::Dst, StructureKind::DstSimilar] {
+            let (dst, _) = Built::new(kind, TraversalKind::Stack, &bvh, tris.clone()).unwrap();
+            check(gpu, &dst, &rays, &what(kind.name()));
+        }
         let sparse = Arc::new(SparseBvh::from_bvh(&bvh, tris).unwrap());
         for &t in ON_SPARSE {
             let built = Built::sparse(t, sparse.clone()).unwrap();

@@ -10,6 +10,7 @@ mod support;
 
 mod commands;
 mod field;
+mod gpu;
 mod paper;
 mod report_browser;
 mod saved;

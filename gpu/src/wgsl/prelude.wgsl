@@ -301,6 +301,12 @@ var<private> step_kids: u32;
 // Walk::step over own-box node `node`: a leaf's triangles are tested, an
 // inner node's two children boxes (the adjacent pair at its link) are.
 fn walk_step(node: u32) -> u32 {
+    return walk_step_at(node, false);
+}
+
+// walk_step, the children at slot 2·node (the implicit layout: IMPLICIT-B's
+// index) when `implicit`, else at the node's link.
+fn walk_step_at(node: u32, implicit: bool) -> u32 {
     n_nodes += 1u;
     let link = sp_link(node);
     if (link & LAST) != 0u {
@@ -310,9 +316,10 @@ fn walk_step(node: u32) -> u32 {
         return STEP_LEAF;
     }
     n_planes += 12u;
-    step_left = link;
-    let tl = own_box_test(link);
-    let tr = own_box_test(link + 1u);
+    let left = select(link, 2u * node, implicit);
+    step_left = left;
+    let tl = own_box_test(left);
+    let tr = own_box_test(left + 1u);
     let hl = tl != inf();
     let hr = tr != inf();
     if hl && hr {
@@ -348,4 +355,32 @@ fn u64_neg(x: vec2u) -> vec2u {
 
 fn u64_nonzero(x: vec2u) -> bool {
     return (x.x | x.y) != 0u;
+}
+
+// The interval traversals' entry (shared/leaf.rs, enter_interval): the
+// scene box's slabs widened by BoxRay::interval's steps; true if the
+// interval [enter_t0, enter_t1] is not empty (6 plane tests either way).
+var<private> enter_t0: f32;
+var<private> enter_t1: f32;
+
+fn start_interval(id: u32) -> bool {
+    if !start(id) && params.empty != 0u {
+        return false;
+    }
+    var tn = ray.tmin;
+    var tf = inf();
+    for (var a = 0u; a < 3u; a++) {
+        let l = (params.lo[a] - ray.o[a]) * ray.inv[a];
+        let h = (params.hi[a] - ray.o[a]) * ray.inv[a];
+        let neg = (bitcast<u32>(ray.inv[a]) & 0x80000000u) != 0u;
+        let n = select(l, h, neg);
+        let f = select(h, l, neg);
+        tn = select(tn, n, n > tn);
+        tf = select(tf, f, f < tf);
+    }
+    let up = tf * (1.0 + bitcast<f32>(bitcast<u32>(WIDENING_STEP) | (bitcast<u32>(tf) & 0x80000000u)));
+    let down = tn * (1.0 - bitcast<f32>(bitcast<u32>(WIDENING_STEP) | (bitcast<u32>(tn) & 0x80000000u)));
+    enter_t0 = down;
+    enter_t1 = select(up, ray.tmax, ray.tmax < up);
+    return !(enter_t0 > enter_t1);
 }
