@@ -44,12 +44,12 @@ impl Gpu {
         };
         let info = adapter.get_info();
         let offered = adapter.limits();
-        let mut limits = wgpu::Limits::default();
-        limits.max_storage_buffer_binding_size = offered.max_storage_buffer_binding_size;
-        limits.max_buffer_size = offered.max_buffer_size;
-        limits.max_storage_buffers_per_shader_stage =
-            offered.max_storage_buffers_per_shader_stage.max(5);
-        limits.max_compute_workgroups_per_dimension = offered.max_compute_workgroups_per_dimension;
+        let limits = wgpu::Limits {
+            max_storage_buffer_binding_size: offered.max_storage_buffer_binding_size,
+            max_buffer_size: offered.max_buffer_size,
+            max_compute_workgroups_per_dimension: offered.max_compute_workgroups_per_dimension,
+            ..Default::default()
+        };
         // f64 lets the triangle test redo its zero edge functions as the
         // CPU does; without it those rays go back to the CPU.
         let features = adapter.features() & wgpu::Features::SHADER_F64;

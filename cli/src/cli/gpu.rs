@@ -1,4 +1,6 @@
 //! `--device gpu`: the GPU back end (crate `raytree-gpu`, feature `gpu`).
+// Without the feature, only the options and the refusals remain.
+#![cfg_attr(not(feature = "gpu"), allow(dead_code))]
 
 use clap::ValueEnum;
 use raytree::error::{Error, Result};
@@ -17,6 +19,10 @@ pub enum Device {
     /// there is no GPU).
     Gpu,
 }
+
+/// A trace's hits, their counters summed, its seconds and, on the GPU, its
+/// report.
+pub type Traced = (Vec<Option<Hit>>, Counters, f64, Option<GpuReport>);
 
 /// The GPU side of a trace report.
 #[derive(Serialize, Clone, Debug)]
@@ -68,12 +74,7 @@ pub fn open_gpu() -> Result<Gpu> {
 /// Traces `rays` on the GPU: the hits, their counters summed, the GPU's
 /// seconds and the report.
 #[cfg(feature = "gpu")]
-pub fn trace(
-    gpu: &Gpu,
-    built: &Built,
-    rays: &[Ray],
-    any: bool,
-) -> Result<(Vec<Option<Hit>>, Counters, f64, Option<GpuReport>)> {
+pub fn trace(gpu: &Gpu, built: &Built, rays: &[Ray], any: bool) -> Result<Traced> {
     use raytree_gpu::{GpuAccel, Query};
     let err = |e: raytree_gpu::GpuError| Error::Invalid(e.to_string());
     let accel = GpuAccel::new(gpu, built).map_err(err)?;
@@ -103,12 +104,7 @@ pub fn trace(
 
 /// Without the `gpu` feature there is no handle to trace with.
 #[cfg(not(feature = "gpu"))]
-pub fn trace(
-    gpu: &Gpu,
-    _built: &Built,
-    _rays: &[Ray],
-    _any: bool,
-) -> Result<(Vec<Option<Hit>>, Counters, f64, Option<GpuReport>)> {
+pub fn trace(gpu: &Gpu, _built: &Built, _rays: &[Ray], _any: bool) -> Result<Traced> {
     match *gpu {}
 }
 
