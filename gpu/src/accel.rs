@@ -151,8 +151,8 @@ fn upload_of(built: &Built) -> Result<Upload<'_>> {
 /// included, as zeros), found by a walk over the nodes alone: the mapping
 /// reserves far more.
 fn implicit_used(slots: &[OwnBoxNode], empty: bool) -> usize {
-    if empty {
-        return 2;
+    if empty || slots.len() < 2 {
+        return slots.len().min(2);
     }
     let mut last = 1;
     let mut todo = vec![1usize];

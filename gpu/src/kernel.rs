@@ -62,13 +62,6 @@ impl Kernel {
         }
     }
 
-    /// Whether the kernel visits nodes in the CPU kernel's order, so that
-    /// its counters equal the CPU's ray for ray. (All of them do: each
-    /// mirrors its own CPU kernel, HAPALA included.)
-    pub fn same_order(&self) -> bool {
-        true
-    }
-
     /// The full WGSL source: constants, prelude, kernel; `stack` is the
     /// private stack's size for the stack kernels.
     pub(crate) fn source(&self, stack: usize, f64: bool) -> String {
