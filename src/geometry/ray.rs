@@ -117,6 +117,18 @@ impl Ray {
         self.inv_direction
     }
 
+    /// The watertight test's axes `[kx, ky, kz]`: `kz` the axis of the
+    /// largest |direction| component, `kx`, `ky` the other two (swapped for
+    /// a negative `kz` component, to keep the winding).
+    pub fn shear_axes(&self) -> [usize; 3] {
+        self.k
+    }
+
+    /// The watertight test's shear constants `(Sx, Sy, Sz)`.
+    pub fn shear(&self) -> Vec3 {
+        self.shear
+    }
+
     /// The point at parameter `t`.
     pub fn at(&self, t: f32) -> Vec3 {
         self.origin + self.direction * t

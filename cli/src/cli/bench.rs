@@ -26,6 +26,11 @@ pub enum BenchCommand {
     /// `obvhs`) on the same primary, AO and path rays: Mrays/s and ratios
     /// to raytree's BVH with STACK.
     Peers(PeersArgs),
+    /// The GPU back end (feature `gpu`): the stackless paper's Table 1 on
+    /// AO rays and the dual-split paper's frame-time ratio on path-tracing
+    /// bounce rays, on the GPU beside the CPU, with the adapter, its driver
+    /// and limits.
+    Gpu(super::gpu::GpuBenchArgs),
 }
 
 #[derive(Args, Debug)]
@@ -168,6 +173,7 @@ pub fn run(cmd: BenchCommand) -> Result<()> {
         BenchCommand::Stackless(a) => run_stackless(a),
         BenchCommand::Dst(a) => run_dst(a),
         BenchCommand::Peers(a) => run_peers(a),
+        BenchCommand::Gpu(a) => super::gpu::run_bench(a),
     }
 }
 

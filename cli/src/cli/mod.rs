@@ -5,6 +5,7 @@
 mod bench;
 mod build;
 mod common;
+mod gpu;
 mod info;
 mod out;
 mod render;

@@ -1,6 +1,7 @@
 //! `raytree trace`: rays from a file, hits to a file.
 
 use super::common::{self, SceneArgs, SceneReport, StructureArgs};
+use super::gpu::{self as gpu_cli, Device, GpuReport};
 use super::out::say;
 use crate::bench::machine::Machine;
 use clap::{Args, ValueEnum};
@@ -47,6 +48,10 @@ pub struct TraceArgs {
     /// Also write a JSON report (times, Mrays/s, counters) to this file.
     #[arg(long)]
     json: Option<PathBuf>,
+    /// Where to trace: cpu, or gpu (wgpu compute shaders over Vulkan; the
+    /// bvh with stack, sparse, hapala and laine-k).
+    #[arg(long, value_enum, default_value_t = Device::Cpu)]
+    device: Device,
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -77,6 +82,12 @@ struct TraceReport {
     mrays_per_second: f64,
     counters: Counters,
     per_ray: PerRay,
+    /// `cpu` or `gpu`.
+    device: Device,
+    /// The GPU adapter and the rays it handed back to the CPU (with
+    /// --device gpu).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    gpu: Option<GpuReport>,
 }
 
 struct TraceWith<'a> {
@@ -124,6 +135,8 @@ pub fn run(args: TraceArgs) -> Result<()> {
         super::out::report_to_stderr();
     }
     let rays = rayfile::read_rays(&args.rays)?;
+    // No adapter: one line and exit 1, before any work.
+    let gpu = gpu_cli::open(args.device)?;
     let go = || -> Result<()> {
         let (scene, mut scene_report, saved) =
             common::load_scene_with(&args.scene, &args.structure.layout_options())?;
@@ -136,10 +149,16 @@ pub fn run(args: TraceArgs) -> Result<()> {
             false,
         )?;
         drop(bvh);
-        let (hits, counters, seconds) = built.with(TraceWith {
-            rays: &rays,
-            any: args.any_hit,
-        });
+        let (hits, counters, seconds, gpu_report) = match &gpu {
+            Some(g) => gpu_cli::trace(g, &built, &rays, args.any_hit)?,
+            None => {
+                let (h, c, s) = built.with(TraceWith {
+                    rays: &rays,
+                    any: args.any_hit,
+                });
+                (h, c, s, None)
+            }
+        };
         let write = |w: &mut dyn std::io::Write| match args.format {
             Format::Bin => w.write_all(&rayfile::encode_hits(&hits)),
             Format::BinGeometry => w.write_all(&rayfile::encode_geometry_hits(&hits, &scene.mesh)),
@@ -169,17 +188,37 @@ pub fn run(args: TraceArgs) -> Result<()> {
             mrays_per_second: rays.len() as f64 / seconds.max(1e-12) / 1e6,
             counters,
             per_ray: counters.per_ray(),
+            device: args.device,
+            gpu: gpu_report,
         };
         common::say_saved(&report.scene);
-        say!(
-            "traced     {} rays ({} hits) through {} in {:.3} s: {:.2} Mrays/s on {} threads",
-            report.rays,
-            report.hits,
-            report.structure.structure.name(),
-            report.trace_seconds,
-            report.mrays_per_second,
-            report.threads
-        );
+        match &report.gpu {
+            Some(g) => {
+                say!(
+                    "traced     {} rays ({} hits) through {} in {:.3} s: {:.2} Mrays/s on the GPU",
+                    report.rays,
+                    report.hits,
+                    report.structure.structure.name(),
+                    report.trace_seconds,
+                    report.mrays_per_second,
+                );
+                say!(
+                    "gpu        {}; kernel {}; {} rays finished on the CPU",
+                    g.adapter,
+                    g.kernel,
+                    g.deferred
+                );
+            }
+            None => say!(
+                "traced     {} rays ({} hits) through {} in {:.3} s: {:.2} Mrays/s on {} threads",
+                report.rays,
+                report.hits,
+                report.structure.structure.name(),
+                report.trace_seconds,
+                report.mrays_per_second,
+                report.threads
+            ),
+        }
         if args.stats {
             let p = report.per_ray;
             say!(

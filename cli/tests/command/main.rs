@@ -1,7 +1,7 @@
 //! The `raytree` command's tests, in one test binary: commands, outputs and
 //! errors (`commands`), bad and extreme input (`field`), the stackless
-//! paper's workload (`paper`) and the HTML report in headless Chromium
-//! (`report_browser`). The peers' tests (`tests/peers.rs`) stay apart, so
+//! paper's workload (`paper`), the HTML report in headless Chromium
+//! (`report_browser`) and `--device gpu` (`gpu`). The peers' tests (`tests/peers.rs`) stay apart, so
 //! that CI can build them with Embree alone.
 
 #[path = "../../../tests/core/common.rs"]
@@ -10,6 +10,7 @@ mod support;
 
 mod commands;
 mod field;
+mod gpu;
 mod paper;
 mod report_browser;
 mod saved;

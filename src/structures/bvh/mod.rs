@@ -194,6 +194,36 @@ impl BinaryBvh {
     pub fn is_empty(&self) -> bool {
         self.index.is_empty()
     }
+    /// The encoded nodes, word for word as the traversal reads them (see
+    /// the module docs), for back ends that upload them as they are.
+    pub fn words(&self) -> &[u32] {
+        &self.words
+    }
+
+    /// The sign-terminated triangle index list ([`LAST`]).
+    pub fn index(&self) -> &[u32] {
+        &self.index
+    }
+
+    /// The root's reference: its word offset, bit 31 set for a leaf.
+    pub fn root(&self) -> NodeRef {
+        self.root
+    }
+
+    /// The root's own box (the scene box).
+    pub fn root_bounds(&self) -> Aabb {
+        self.root_bounds
+    }
+
+    /// The tree's depth (the canonical BVH's).
+    pub fn depth(&self) -> u32 {
+        self.depth
+    }
+
+    /// The mesh's triangles, in mesh order.
+    pub fn triangles(&self) -> &[Triangle] {
+        &self.triangles
+    }
 }
 
 /// Two boxes in the per-axis order of an inner node and of

@@ -159,6 +159,21 @@ impl DualSplitTree {
         self.index.is_empty()
     }
 
+    /// The root's own box (the scene box), which the traversal enters.
+    pub fn root_bounds(&self) -> Aabb {
+        self.root_bounds
+    }
+
+    /// The tree's depth (the canonical BVH's; sizes the traversal stack).
+    pub fn depth(&self) -> u32 {
+        self.depth
+    }
+
+    /// The mesh's triangles, in mesh order.
+    pub fn triangles(&self) -> &[Triangle] {
+        &self.triangles
+    }
+
     /// The node at word `at` of [`Self::words`], decoded.
     pub fn node(&self, at: usize) -> DstNode {
         DstNode::decode(&self.words[at..])

@@ -109,7 +109,7 @@ impl ImplicitBvh {
 
     /// The nodes by slot (heap position + 1); gaps read as zeros.
     #[inline(always)]
-    pub(crate) fn slots(&self) -> &[OwnBoxNode] {
+    pub fn slots(&self) -> &[OwnBoxNode] {
         bytemuck::cast_slice(&self.map[..])
     }
 
@@ -122,6 +122,16 @@ impl ImplicitBvh {
     /// Whether the tree holds no triangles.
     pub fn is_empty(&self) -> bool {
         self.index.is_empty()
+    }
+
+    /// The sign-terminated triangle index list.
+    pub fn index(&self) -> &[u32] {
+        &self.index
+    }
+
+    /// The mesh's triangles, in mesh order.
+    pub fn triangles(&self) -> &[Triangle] {
+        &self.triangles
     }
 
     /// Bytes of address space reserved for the nodes.

@@ -120,6 +120,26 @@ impl SparseBvh {
         self.index.is_empty()
     }
 
+    /// The nodes, as the traversals read them (root at slot 0).
+    pub fn nodes(&self) -> &[OwnBoxNode] {
+        &self.nodes
+    }
+
+    /// The sign-terminated triangle index list.
+    pub fn index(&self) -> &[u32] {
+        &self.index
+    }
+
+    /// The tree's depth (the canonical BVH's).
+    pub fn depth(&self) -> u32 {
+        self.depth
+    }
+
+    /// The mesh's triangles, in mesh order.
+    pub fn triangles(&self) -> &[Triangle] {
+        &self.triangles
+    }
+
     /// Nodes of the tree: the canonical BVH's count.
     pub fn node_count(&self) -> usize {
         self.nodes.len()
