@@ -164,7 +164,9 @@ mod tests {
 }
 
 /// Collects every hit along a ray (the all-hits query), passing the work on
-/// to `inner`.
+/// to `inner`. A triangle that several leaves list (spatial splits,
+/// [`crate::bvh::Builder::Sbvh`]) is found once per leaf the ray enters; it
+/// is kept once.
 #[derive(Clone, Debug, Default)]
 pub struct HitList<S: Stats = NoStats> {
     /// The hits, in the order the traversal found them.
@@ -186,18 +188,34 @@ impl<S: Stats> Stats for HitList<S> {
     }
     #[inline(always)]
     fn hit(&mut self, hit: Hit) {
-        self.hits.push(hit)
+        if !self.hits.iter().any(|h| h.prim == hit.prim) {
+            self.hits.push(hit)
+        }
     }
 }
 
 /// Counts the hits along a ray (the all-hits query without the hits),
-/// passing the work on to `inner`.
+/// passing the work on to `inner`. Each triangle counts once, however many
+/// leaves list it (spatial splits, [`crate::bvh::Builder::Sbvh`]).
 #[derive(Clone, Debug, Default)]
 pub struct HitCount<S: Stats = NoStats> {
-    /// Hits found.
+    /// Hits found: distinct triangles.
     pub count: u32,
     /// The sink that receives the work.
     pub inner: S,
+    /// The triangles counted so far.
+    seen: Vec<u32>,
+}
+
+impl<S: Stats> HitCount<S> {
+    /// No hits yet, the work going to `inner`.
+    pub fn new(inner: S) -> Self {
+        HitCount {
+            count: 0,
+            inner,
+            seen: Vec::new(),
+        }
+    }
 }
 
 impl<S: Stats> Stats for HitCount<S> {
@@ -212,8 +230,11 @@ impl<S: Stats> Stats for HitCount<S> {
         self.inner.add(tally)
     }
     #[inline(always)]
-    fn hit(&mut self, _hit: Hit) {
-        self.count += 1
+    fn hit(&mut self, hit: Hit) {
+        if !self.seen.contains(&hit.prim) {
+            self.seen.push(hit.prim);
+            self.count += 1
+        }
     }
 }
 

@@ -413,13 +413,17 @@ impl PyScene {
 /// A numpy uint32 array of any shape.
 type U32Array<'py> = Bound<'py, PyArrayDyn<u32>>;
 
-/// `"sah"` or `"hybrid"`.
+/// `"sah"`, `"hybrid"` or `"sbvh"`.
 fn parse_builder(name: &str) -> PyResult<Builder> {
     Builder::ALL
         .into_iter()
         .find(|b| b.name() == name)
         .ok_or_else(|| {
-            PyValueError::new_err(format!("unknown builder '{name}' (known: sah, hybrid)"))
+            let known: Vec<&str> = Builder::ALL.iter().map(|b| b.name()).collect();
+            PyValueError::new_err(format!(
+                "unknown builder '{name}' (known: {})",
+                known.join(", ")
+            ))
         })
 }
 
@@ -441,8 +445,10 @@ fn parse_builder(name: &str) -> PyResult<Builder> {
 ///         ``"implicit-a"``, ``"implicit-b"``, ``"sparse"``,
 ///         ``"hapala"``, ``"laine-0"``, ``"laine-1"``, ``"laine-2"``,
 ///         ``"laine-4"``, ``"laine-8"``. See `raytree.TRAVERSALS`.
-///     builder: ``"sah"`` (binned SAH) or ``"hybrid"`` (SAH for the top
-///         8 levels, then median splits: the stackless paper's tree).
+///     builder: ``"sah"`` (binned SAH), ``"hybrid"`` (SAH for the top
+///         8 levels, then median splits: the stackless paper's tree) or
+///         ``"sbvh"`` (binned SAH with spatial splits: a triangle may sit
+///         in several leaves).
 ///     max_leaf_size: most triangles per BVH leaf, 1..=255.
 ///     threads: worker threads for the build (None or 0: all cores).
 ///

@@ -525,10 +525,7 @@ impl WithAccel for CountHits<'_> {
                         None => a.count_hits(&ray),
                         Some(w) => {
                             let mut s = Counters::default();
-                            let mut sink = HitCount {
-                                count: 0,
-                                inner: &mut s,
-                            };
+                            let mut sink = HitCount::new(&mut s);
                             a.all_hits(&ray, &mut sink);
                             let count = sink.count;
                             w.set(j, &s);

@@ -17,17 +17,23 @@ pub enum Builder {
     /// Binned SAH for the top `sah_levels` levels, then median splits along
     /// the axis of largest centroid spread (Barringer and Akenine-Möller 2013).
     Hybrid,
+    /// Binned SAH with spatial splits (Stich, Friedrich and Dietrich 2009):
+    /// a triangle may be referenced by several leaves, each with the box of
+    /// its part ([`super::sbvh`]).
+    Sbvh,
 }
 
 impl Builder {
-    /// Both builders.
-    pub const ALL: [Builder; 2] = [Builder::Sah, Builder::Hybrid];
+    /// Every builder.
+    pub const ALL: [Builder; 3] = [Builder::Sah, Builder::Hybrid, Builder::Sbvh];
 
-    /// `"sah"` or `"hybrid"`, as serialized and reported in [`super::BuildStats`].
+    /// `"sah"`, `"hybrid"` or `"sbvh"`, as serialized and reported in
+    /// [`super::BuildStats`].
     pub fn name(self) -> &'static str {
         match self {
             Builder::Sah => "sah",
             Builder::Hybrid => "hybrid",
+            Builder::Sbvh => "sbvh",
         }
     }
 }
@@ -41,27 +47,43 @@ pub struct BuildOptions {
     pub max_leaf_size: usize,
     /// Levels split by SAH in the hybrid builder (the stackless paper's 8).
     pub sah_levels: u32,
-    /// SAH bins per axis.
+    /// SAH bins per axis (object and spatial splits).
     pub bins: usize,
+    /// [`Builder::Sbvh`]: spatial splits are tried at a node whose best
+    /// object split's children overlap by more than `alpha` times the root's
+    /// surface area (Stich et al. 2009, §4.3; their `α`, default `1e-5`).
+    pub alpha: f32,
+    /// [`Builder::Sbvh`]: the reference list grows to at most this many
+    /// times the number of (non-degenerate) triangles (at least 1; default
+    /// 1.5).
+    pub max_reference_growth: f32,
 }
 
 /// Below this depth even the SAH builder switches to median splits, which
 /// halve the triangle count at each level: adversarial inputs (exponentially
 /// spaced triangles) cannot make the tree arbitrarily deep.
-const SAH_MAX_DEPTH: u32 = 64;
+pub(super) const SAH_MAX_DEPTH: u32 = 64;
 /// Subtrees with more triangles than this are built on another thread.
-const PARALLEL_SUBTREE: usize = 4096;
+pub(super) const PARALLEL_SUBTREE: usize = 4096;
 
 impl BuildOptions {
-    /// `builder` with leaves of at most 8 triangles, 8 SAH levels (hybrid)
-    /// and 32 bins per axis.
+    /// `builder` with leaves of at most 8 triangles, 8 SAH levels (hybrid),
+    /// 32 bins per axis, `α = 1e-5` and references growing to at most 1.5
+    /// times the triangles (sbvh).
     pub fn new(builder: Builder) -> Self {
         BuildOptions {
             builder,
             max_leaf_size: 8,
             sah_levels: 8,
             bins: 32,
+            alpha: 1e-5,
+            max_reference_growth: 1.5,
         }
+    }
+
+    /// [`Self::new`] with [`Builder::Sbvh`].
+    pub fn sbvh() -> Self {
+        Self::new(Builder::Sbvh)
     }
 
     /// [`Self::new`] with [`Builder::Sah`].
@@ -110,7 +132,7 @@ pub(super) fn build(triangles: &[Triangle], opts: &BuildOptions) -> Bvh {
     let start = Instant::now();
     let bounds: Vec<Aabb> = triangles.par_iter().map(Triangle::bounds).collect();
     let centroids: Vec<Vec3> = bounds.par_iter().map(Aabb::center).collect();
-    let mut prims: Vec<u32> = (0..triangles.len() as u32)
+    let prims: Vec<u32> = (0..triangles.len() as u32)
         .into_par_iter()
         .filter(|&i| !triangles[i as usize].is_degenerate())
         .collect();
@@ -120,6 +142,17 @@ pub(super) fn build(triangles: &[Triangle], opts: &BuildOptions) -> Bvh {
         centroids: &centroids,
         opts,
     };
+    let (nodes, prims) = if opts.builder == Builder::Sbvh {
+        super::sbvh::build(triangles, &prims, opts)
+    } else {
+        binned(&ctx, prims)
+    };
+    finish(nodes, prims, opts, degenerate, start)
+}
+
+/// The binned SAH and hybrid builds: nodes and triangle order.
+fn binned(ctx: &Ctx, mut prims: Vec<u32>) -> (Vec<Node>, Vec<u32>) {
+    let opts = ctx.opts;
     let tree = if prims.is_empty() {
         Tmp::Leaf {
             bounds: Aabb::EMPTY,
@@ -127,10 +160,20 @@ pub(super) fn build(triangles: &[Triangle], opts: &BuildOptions) -> Bvh {
             count: 0,
         }
     } else {
-        subtree(&ctx, &mut prims, 0, 0)
+        subtree(ctx, &mut prims, 0, 0)
     };
     let mut nodes = Vec::with_capacity(2 * prims.len() / opts.max_leaf_size.max(1) + 1);
     flatten(tree, NO_PARENT, 0, &mut nodes);
+    (nodes, prims)
+}
+
+fn finish(
+    nodes: Vec<Node>,
+    prims: Vec<u32>,
+    opts: &BuildOptions,
+    degenerate: usize,
+    start: Instant,
+) -> Bvh {
     let mut bvh = Bvh {
         nodes,
         prims,
@@ -144,9 +187,11 @@ pub(super) fn build(triangles: &[Triangle], opts: &BuildOptions) -> Bvh {
         nodes: bvh.nodes.len(),
         inner_nodes: bvh.nodes.len() - leaves,
         leaves,
+        references: bvh.prims.len(),
         depth: bvh.nodes.iter().map(|n| n.depth).max().unwrap_or(0),
         sah_cost: bvh.sah_cost(),
         degenerate_triangles: degenerate,
+        optimized: None,
     };
     bvh
 }
@@ -180,7 +225,7 @@ fn subtree(ctx: &Ctx, ids: &mut [u32], first: usize, depth: u32) -> Tmp {
     };
     let max_leaf = ctx.opts.max_leaf_size;
     let use_sah = match ctx.opts.builder {
-        Builder::Sah => depth < SAH_MAX_DEPTH,
+        Builder::Sah | Builder::Sbvh => depth < SAH_MAX_DEPTH,
         Builder::Hybrid => depth < ctx.opts.sah_levels.min(SAH_MAX_DEPTH),
     };
     if n == 1 || (!use_sah && n <= max_leaf) {

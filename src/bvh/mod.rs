@@ -3,15 +3,21 @@
 //! Nodes are stored in depth-first preorder: the root is node 0 and an inner
 //! node's left child directly follows it. Leaves hold ranges of
 //! [`Bvh::prims`], which lists mesh triangle indices. Degenerate triangles are
-//! left out: they can never be hit.
+//! left out: they can never be hit. The `sah` and `hybrid` builders list each
+//! triangle once; `sbvh` (spatial splits, [`Builder::Sbvh`]) may list a
+//! triangle in several leaves, each leaf's box then bounding only the part of
+//! the triangle it holds.
 
 mod binning;
 mod build;
 mod node;
+mod optimize;
 mod saved;
+mod sbvh;
 
 pub use build::{BuildOptions, Builder};
 pub use node::{Node, NodeKind};
+pub use optimize::{OptimizeOptions, OptimizeStats};
 
 use crate::geometry::Aabb;
 use serde::Serialize;
@@ -19,7 +25,7 @@ use serde::Serialize;
 /// What a build reports.
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct BuildStats {
-    /// [`Builder::name`] of the builder used: `"sah"` or `"hybrid"`.
+    /// [`Builder::name`] of the builder used: `"sah"`, `"hybrid"` or `"sbvh"`.
     pub builder: String,
     /// [`BuildOptions::max_leaf_size`] of the build.
     pub max_leaf_size: usize,
@@ -31,12 +37,18 @@ pub struct BuildStats {
     pub inner_nodes: usize,
     /// Leaf nodes.
     pub leaves: usize,
+    /// Triangle references in the leaves (`prims.len()`): the non-degenerate
+    /// triangles, plus the duplicates spatial splits made.
+    pub references: usize,
     /// Depth of the deepest node; the root has depth 0.
     pub depth: u32,
     /// SAH cost with a traversal cost of 1 and an intersection cost of 1.
     pub sah_cost: f64,
     /// Triangles of the mesh left out because they have zero area.
     pub degenerate_triangles: usize,
+    /// What [`Bvh::optimize`] did to the tree, if it ran (not kept in saved
+    /// files).
+    pub optimized: Option<OptimizeStats>,
 }
 
 /// A binary BVH over triangle references.
@@ -63,6 +75,18 @@ impl Bvh {
     /// If `options.max_leaf_size` is not in `1..=255`.
     pub fn build(triangles: &[crate::geometry::Triangle], options: &BuildOptions) -> Bvh {
         build::build(triangles, options)
+    }
+
+    /// The tree improved by reinsertion (Bittner, Hapala and Havran 2013;
+    /// see `bvh/optimize.rs`): the same leaves with the same triangle
+    /// references, arranged for a lower SAH cost, never a higher one.
+    /// [`BuildStats::optimized`] reports the costs before and after;
+    /// [`BuildStats::build_seconds`] grows by the pass's time.
+    pub fn optimize(&self, options: &OptimizeOptions) -> Bvh {
+        let (mut out, stats) = optimize::optimize(self, options);
+        out.stats.build_seconds = self.stats.build_seconds + stats.seconds;
+        out.stats.optimized = Some(stats);
+        out
     }
 
     /// Node [`ROOT`].
@@ -106,10 +130,12 @@ impl Bvh {
 
     /// Checks the tree's invariants and says which one fails: preorder with
     /// the left child next, parent links and depths consistent, every box
-    /// holding its children's boxes (leaves: their triangles'), every
-    /// non-degenerate triangle in exactly one leaf, leaves within the size
-    /// limit. Never panics, whatever the nodes hold (a loaded file's tree is
-    /// checked with it).
+    /// holding its children's boxes, leaves within the size limit, every
+    /// non-degenerate triangle in at least one leaf (and no degenerate one),
+    /// no leaf listing a triangle twice. A triangle listed once lies inside
+    /// its leaf's box; one listed in several leaves (spatial splits) meets
+    /// each of their boxes, which together span its box. Never panics,
+    /// whatever the nodes hold (a loaded file's tree is checked with it).
     pub fn validate(&self, triangles: &[crate::geometry::Triangle]) -> Result<(), String> {
         if self.nodes.is_empty() {
             return Err("no nodes".into());
@@ -118,6 +144,8 @@ impl Bvh {
             return Err("root has a parent or a depth".into());
         }
         let mut seen = vec![0u8; triangles.len()];
+        // Union of the boxes of the leaves listing each triangle.
+        let mut span = vec![Aabb::EMPTY; triangles.len()];
         for (i, n) in self.nodes.iter().enumerate() {
             match n.kind {
                 NodeKind::Inner { left, right, .. } => {
@@ -152,23 +180,37 @@ impl Bvh {
                                 self.prims.len()
                             )
                         })?;
-                    for &p in prims {
+                    for (k, &p) in prims.iter().enumerate() {
                         let t = triangles
                             .get(p as usize)
                             .ok_or_else(|| format!("leaf {i}: bad triangle {p}"))?;
-                        if !n.bounds.contains(&t.bounds()) {
-                            return Err(format!("leaf {i} does not contain triangle {p}"));
+                        let tb = t.bounds();
+                        if tb.min.cmpgt(n.bounds.max).any() || tb.max.cmplt(n.bounds.min).any() {
+                            return Err(format!("leaf {i}'s box misses triangle {p}"));
+                        }
+                        if prims[..k].contains(&p) {
+                            return Err(format!("leaf {i} lists triangle {p} twice"));
                         }
                         seen[p as usize] = seen[p as usize].saturating_add(1);
+                        span[p as usize] = span[p as usize].union(n.bounds);
                     }
                 }
             }
         }
         for (p, (&s, t)) in seen.iter().zip(triangles).enumerate() {
-            let want = if t.is_degenerate() { 0 } else { 1 };
-            if s != want {
+            if t.is_degenerate() != (s == 0) {
+                let want = if t.is_degenerate() {
+                    "none"
+                } else {
+                    "one or more"
+                };
                 return Err(format!(
                     "triangle {p} appears in {s} leaves, expected {want}"
+                ));
+            }
+            if s > 0 && !span[p].contains(&t.bounds()) {
+                return Err(format!(
+                    "the boxes of the leaves listing triangle {p} do not contain it"
                 ));
             }
         }

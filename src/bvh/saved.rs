@@ -144,22 +144,19 @@ impl Bvh {
                 nodes: n,
                 inner_nodes: inner,
                 leaves,
+                references: 0,
                 depth,
                 sah_cost,
                 degenerate_triangles: 0,
+                optimized: None,
             },
         };
         bvh.validate(triangles)
             .map_err(|e| format!("the BVH: {e}"))?;
-        let listed: usize = bvh
-            .nodes
-            .iter()
-            .map(|n| match n.kind {
-                NodeKind::Leaf { count, .. } => count as usize,
-                NodeKind::Inner { .. } => 0,
-            })
-            .sum();
-        bvh.stats.degenerate_triangles = triangles.len() - listed;
+        // Validated: the degenerate triangles are the ones no leaf lists
+        // (a triangle may be listed in several leaves, spatial splits).
+        bvh.stats.references = bvh.prims.len();
+        bvh.stats.degenerate_triangles = triangles.iter().filter(|t| t.is_degenerate()).count();
         Ok(bvh)
     }
 }

@@ -195,10 +195,7 @@ impl<A: Accel> Tracer for A {
             counts,
             counters,
             |a, r, c| {
-                let mut sink = HitCount {
-                    count: 0,
-                    inner: &mut *c,
-                };
+                let mut sink = HitCount::new(&mut *c);
                 a.all_hits(r, &mut sink);
                 sink.count
             },

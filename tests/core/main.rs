@@ -17,6 +17,7 @@ mod image_hashes;
 mod oracle;
 mod paper_workload;
 mod saved;
+mod sbvh;
 mod scenes;
 mod shared_meshes;
 mod soups;

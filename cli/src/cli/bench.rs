@@ -234,10 +234,7 @@ fn run_dst(a: DstArgs) -> Result<()> {
     let (w, h) = a.preset.size();
     let width = a.width.map_or(w, |v| v as usize);
     let height = a.height.map_or(h, |v| v as usize);
-    let builder = match a.builder {
-        BuilderArg::Sah => Builder::Sah,
-        BuilderArg::Hybrid => Builder::Hybrid,
-    };
+    let builder = Builder::from(a.builder);
     let opts = dst::Options {
         build: BuildOptions::new(builder).with_max_leaf_size(a.max_leaf as usize),
         width,
@@ -313,10 +310,7 @@ fn run_stackless(a: StacklessArgs) -> Result<()> {
     } else {
         a.threads.iter().map(|&t| t as usize).collect()
     };
-    let builder = match a.builder {
-        BuilderArg::Sah => Builder::Sah,
-        BuilderArg::Hybrid => Builder::Hybrid,
-    };
+    let builder = Builder::from(a.builder);
     let opts = stackless::Options {
         preset: a.preset,
         build: BuildOptions::new(builder).with_max_leaf_size(a.max_leaf as usize),

@@ -115,9 +115,15 @@ pub fn run(args: InfoArgs) -> Result<()> {
     }
     let b = &r.bvh;
     say!(
-        "bvh         {} builder, leaves of at most {}: {} nodes ({} inner, {} leaves), depth {}, SAH cost {:.3}, {} degenerate triangles left out, built in {:.3} s",
-        b.builder, b.max_leaf_size, b.nodes, b.inner_nodes, b.leaves, b.depth, b.sah_cost, b.degenerate_triangles, b.build_seconds
+        "bvh         {} builder, leaves of at most {}: {} nodes ({} inner, {} leaves), {} triangle references, depth {}, SAH cost {:.3}, {} degenerate triangles left out, built in {:.3} s",
+        b.builder, b.max_leaf_size, b.nodes, b.inner_nodes, b.leaves, b.references, b.depth, b.sah_cost, b.degenerate_triangles, b.build_seconds
     );
+    if let Some(o) = &b.optimized {
+        say!(
+            "            optimized by reinsertion: SAH cost {:.3} -> {:.3} ({} reinsertions in {} rounds, {:.3} s)",
+            o.sah_cost_before, o.sah_cost_after, o.reinsertions, o.rounds, o.seconds
+        );
+    }
     say!();
     let bvh = r
         .structures

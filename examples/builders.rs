@@ -1,0 +1,159 @@
+//! Build time, SAH cost, node and reference counts of every builder (with
+//! and without `--optimize`), on one thread and on all, and the one-thread
+//! trace speed of the binary BVH (STACK) each builder makes on primary, AO
+//! (any hit) and path rays; the rays are made once per scene with the SAH
+//! tree, and the fastest of the interleaved rounds is kept.
+//!
+//! ```text
+//! cargo run --release --example builders -- atrium ../shared/scenes/bunny.obj
+//! ```
+//!
+//! `RAYTREE_BUILD_ONLY=1` skips the traces; `RAYTREE_ROUNDS` sets the
+//! rounds (default 5).
+
+use raytree::bvh::OptimizeOptions;
+use raytree::prelude::*;
+use raytree::render::rayset;
+use std::time::Instant;
+
+struct Variant {
+    name: &'static str,
+    builder: Builder,
+    optimize: bool,
+}
+
+const VARIANTS: [Variant; 5] = [
+    Variant {
+        name: "sah",
+        builder: Builder::Sah,
+        optimize: false,
+    },
+    Variant {
+        name: "hybrid",
+        builder: Builder::Hybrid,
+        optimize: false,
+    },
+    Variant {
+        name: "sbvh",
+        builder: Builder::Sbvh,
+        optimize: false,
+    },
+    Variant {
+        name: "sah+opt",
+        builder: Builder::Sah,
+        optimize: true,
+    },
+    Variant {
+        name: "sbvh+opt",
+        builder: Builder::Sbvh,
+        optimize: true,
+    },
+];
+
+fn build(v: &Variant, tris: &[Triangle]) -> (Bvh, f64) {
+    let t = Instant::now();
+    let mut bvh = Bvh::build(tris, &BuildOptions::new(v.builder));
+    if v.optimize {
+        bvh = bvh.optimize(&OptimizeOptions::default());
+    }
+    (bvh, t.elapsed().as_secs_f64())
+}
+
+fn trace(a: &BinaryBvh, rays: &[Ray], any: bool) -> (f64, usize) {
+    let t = Instant::now();
+    let hits = if any {
+        rays.iter()
+            .filter(|r| a.any_hit(r, &mut NoStats).is_some())
+            .count()
+    } else {
+        rays.iter()
+            .filter(|r| a.closest_hit(r, &mut NoStats).is_some())
+            .count()
+    };
+    (t.elapsed().as_secs_f64(), hits)
+}
+
+fn main() {
+    let specs: Vec<String> = std::env::args().skip(1).collect();
+    let rounds: usize = std::env::var("RAYTREE_ROUNDS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(5);
+    let build_only = std::env::var_os("RAYTREE_BUILD_ONLY").is_some();
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
+    let threads = rayon::current_num_threads();
+    for spec in &specs {
+        let scene = Scene::from_spec(spec).unwrap();
+        let tris = &scene.triangles;
+        println!("{spec}: {} triangles", tris.len());
+        let mut bvhs = Vec::new();
+        for v in &VARIANTS {
+            let (mut t1, mut tn) = (f64::INFINITY, f64::INFINITY);
+            let mut bvh = None;
+            for _ in 0..rounds.min(3) {
+                let (b, t) = one.install(|| build(v, tris));
+                t1 = t1.min(t);
+                let (_, t) = build(v, tris);
+                tn = tn.min(t);
+                bvh = Some(b);
+            }
+            let bvh = bvh.unwrap();
+            let s = &bvh.stats;
+            println!(
+                "  {:<9} build {:>8.1} ms (1 thread) {:>8.1} ms ({threads} threads)  SAH {:>8.3}  nodes {:>8}  refs {:>8} ({:.3}x)  depth {}",
+                v.name,
+                t1 * 1e3,
+                tn * 1e3,
+                s.sah_cost,
+                s.nodes,
+                s.references,
+                s.references as f64 / tris.len() as f64,
+                s.depth
+            );
+            bvhs.push(bvh);
+        }
+        if build_only {
+            continue;
+        }
+        let accels: Vec<BinaryBvh> = bvhs
+            .iter()
+            .map(|b| BinaryBvh::from_bvh(b, tris.clone()).unwrap())
+            .collect();
+        let eye = rayset::eye_rays(&scene, 512, 512, 1);
+        let radius = 0.1 * scene.mesh.bounds().extent().length();
+        let ao = rayset::ao_rays(&scene, &accels[0], &eye, 4, radius);
+        let path = one.install(|| rayset::path_rays(&scene, &accels[0], 256, 256, 5));
+        for (kind, rays, any) in [
+            ("primary", &eye, false),
+            ("ao", &ao, true),
+            ("path", &path, false),
+        ] {
+            let mut best = vec![f64::INFINITY; accels.len()];
+            let mut hits = vec![0; accels.len()];
+            for _ in 0..rounds {
+                for (k, a) in accels.iter().enumerate() {
+                    let (t, h) = trace(a, rays, any);
+                    best[k] = best[k].min(t);
+                    hits[k] = h;
+                }
+            }
+            assert!(
+                hits.iter().all(|&h| h == hits[0]),
+                "{kind}: hits differ {hits:?}"
+            );
+            print!("  {kind:<8} {:>8} rays, Mrays/s:", rays.len());
+            for (k, v) in VARIANTS.iter().enumerate() {
+                print!(
+                    " {} {:.2} ({:.3})",
+                    v.name,
+                    rays.len() as f64 / best[k] / 1e6,
+                    best[0] / best[k]
+                );
+            }
+            println!();
+        }
+    }
+}
