@@ -7,6 +7,9 @@ use rayon::prelude::*;
 
 /// Bins are filled in parallel above this many triangles.
 const PARALLEL_BINNING: usize = 1 << 16;
+/// The most bins per axis: the bins live in fixed arrays on the stack, so
+/// that a node's split search allocates nothing.
+pub const MAX_BINS: usize = 64;
 
 #[derive(Clone, Copy)]
 struct Bin {
@@ -56,20 +59,30 @@ pub fn best_split(
     nbins: usize,
 ) -> Option<Split> {
     let extent = centroid_bounds.extent();
-    let maps: Vec<BinMap> = (0..3)
-        .filter(|&a| extent[a] > 0.0)
-        .map(|axis| BinMap {
-            axis,
-            min: centroid_bounds.min[axis],
-            scale: nbins as f32 * (1.0 - 1e-6) / extent[axis],
-            bins: nbins,
-        })
-        .collect();
+    let mut maps = [BinMap {
+        axis: 0,
+        min: 0.0,
+        scale: 0.0,
+        bins: nbins,
+    }; 3];
+    let mut axes = 0;
+    for axis in 0..3 {
+        if extent[axis] > 0.0 {
+            maps[axes] = BinMap {
+                axis,
+                min: centroid_bounds.min[axis],
+                scale: nbins as f32 * (1.0 - 1e-6) / extent[axis],
+                bins: nbins,
+            };
+            axes += 1;
+        }
+    }
+    let maps = &maps[..axes];
     if maps.is_empty() {
         return None;
     }
     let fill = |chunk: &[u32]| {
-        let mut bins = vec![EMPTY_BIN; maps.len() * nbins];
+        let mut bins = [EMPTY_BIN; 3 * MAX_BINS];
         for &id in chunk {
             let (b, c) = (bounds[id as usize], centroids[id as usize]);
             for (m, map) in maps.iter().enumerate() {
@@ -100,7 +113,7 @@ pub fn best_split(
         0.0
     };
     let mut best: Option<Split> = None;
-    let mut right_cost = vec![0.0f32; nbins];
+    let mut right_cost = [0.0f32; MAX_BINS];
     for (m, map) in maps.iter().enumerate() {
         let axis_bins = &bins[m * nbins..(m + 1) * nbins];
         // Sweep from the right: right_cost[k] = A(bins k..) * N(bins k..).

@@ -1,7 +1,7 @@
 //! Top-down builders: binned SAH, and the stackless paper's hybrid (SAH for
 //! the top levels, median splits below). Subtrees are built in parallel.
 
-use super::binning::{best_split, Split};
+use super::binning::{best_split, Split, MAX_BINS};
 use super::{BuildStats, Bvh, Node, NodeKind, NO_PARENT};
 use crate::geometry::{Aabb, Triangle};
 use glam::Vec3;
@@ -47,7 +47,7 @@ pub struct BuildOptions {
     pub max_leaf_size: usize,
     /// Levels split by SAH in the hybrid builder (the stackless paper's 8).
     pub sah_levels: u32,
-    /// SAH bins per axis (object and spatial splits).
+    /// SAH bins per axis (object and spatial splits; 2..=64).
     pub bins: usize,
     /// [`Builder::Sbvh`]: spatial splits are tried at a node whose best
     /// object split's children overlap by more than `alpha` times the root's
@@ -97,25 +97,12 @@ impl BuildOptions {
     }
 
     /// The same options with leaves of at most `n` triangles;
-    /// [`super::Bvh::build`] panics unless `n` is in `1..=255`.
+    /// [`super::Bvh::build`] panics unless `n` is in `1..=255` (and unless
+    /// [`Self::bins`] is in `2..=64`).
     pub fn with_max_leaf_size(mut self, n: usize) -> Self {
         self.max_leaf_size = n;
         self
     }
-}
-
-/// A subtree while building, before it is flattened into preorder.
-enum Tmp {
-    Leaf {
-        bounds: Aabb,
-        first: u32,
-        count: u32,
-    },
-    Inner {
-        bounds: Aabb,
-        axis: u8,
-        kids: Box<[Tmp; 2]>,
-    },
 }
 
 struct Ctx<'a> {
@@ -129,22 +116,26 @@ pub(super) fn build(triangles: &[Triangle], opts: &BuildOptions) -> Bvh {
         (1..=255).contains(&opts.max_leaf_size),
         "max_leaf_size must be in 1..=255"
     );
+    assert!(
+        (2..=MAX_BINS).contains(&opts.bins),
+        "bins must be in 2..={MAX_BINS}"
+    );
     let start = Instant::now();
-    let bounds: Vec<Aabb> = triangles.par_iter().map(Triangle::bounds).collect();
-    let centroids: Vec<Vec3> = bounds.par_iter().map(Aabb::center).collect();
     let prims: Vec<u32> = (0..triangles.len() as u32)
         .into_par_iter()
         .filter(|&i| !triangles[i as usize].is_degenerate())
         .collect();
     let degenerate = triangles.len() - prims.len();
-    let ctx = Ctx {
-        bounds: &bounds,
-        centroids: &centroids,
-        opts,
-    };
     let (nodes, prims) = if opts.builder == Builder::Sbvh {
         super::sbvh::build(triangles, &prims, opts)
     } else {
+        let bounds: Vec<Aabb> = triangles.par_iter().map(Triangle::bounds).collect();
+        let centroids: Vec<Vec3> = bounds.par_iter().map(Aabb::center).collect();
+        let ctx = Ctx {
+            bounds: &bounds,
+            centroids: &centroids,
+            opts,
+        };
         binned(&ctx, prims)
     };
     finish(nodes, prims, opts, degenerate, start)
@@ -153,17 +144,18 @@ pub(super) fn build(triangles: &[Triangle], opts: &BuildOptions) -> Bvh {
 /// The binned SAH and hybrid builds: nodes and triangle order.
 fn binned(ctx: &Ctx, mut prims: Vec<u32>) -> (Vec<Node>, Vec<u32>) {
     let opts = ctx.opts;
-    let tree = if prims.is_empty() {
-        Tmp::Leaf {
-            bounds: Aabb::EMPTY,
-            first: 0,
-            count: 0,
-        }
-    } else {
-        subtree(ctx, &mut prims, 0, 0)
-    };
     let mut nodes = Vec::with_capacity(2 * prims.len() / opts.max_leaf_size.max(1) + 1);
-    flatten(tree, NO_PARENT, 0, &mut nodes);
+    if prims.is_empty() {
+        nodes.push(Node {
+            bounds: Aabb::EMPTY,
+            parent: NO_PARENT,
+            depth: 0,
+            kind: NodeKind::Leaf { first: 0, count: 0 },
+        });
+    } else {
+        let b = bounds_of(ctx, &prims);
+        subtree(ctx, &mut prims, 0, 0, b, NO_PARENT, &mut nodes);
+    }
     (nodes, prims)
 }
 
@@ -196,32 +188,52 @@ fn finish(
     bvh
 }
 
-fn subtree(ctx: &Ctx, ids: &mut [u32], first: usize, depth: u32) -> Tmp {
-    let n = ids.len();
-    let (bounds, cbounds) = if n >= 1 << 15 {
-        ids.par_iter()
-            .map(|&i| {
-                (
-                    ctx.bounds[i as usize],
-                    Aabb::EMPTY.grow(ctx.centroids[i as usize]),
-                )
-            })
-            .reduce(
-                || (Aabb::EMPTY, Aabb::EMPTY),
-                |a, b| (a.0.union(b.0), a.1.union(b.1)),
-            )
-    } else {
-        ids.iter().fold((Aabb::EMPTY, Aabb::EMPTY), |(b, c), &i| {
-            (
-                b.union(ctx.bounds[i as usize]),
-                c.grow(ctx.centroids[i as usize]),
-            )
-        })
+/// The box and the centroids' box of `ids`.
+fn bounds_of(ctx: &Ctx, ids: &[u32]) -> (Aabb, Aabb) {
+    let one = |&i: &u32| {
+        (
+            ctx.bounds[i as usize],
+            Aabb::EMPTY.grow(ctx.centroids[i as usize]),
+        )
     };
-    let leaf = || Tmp::Leaf {
-        bounds,
-        first: first as u32,
-        count: n as u32,
+    let join = |a: (Aabb, Aabb), b: (Aabb, Aabb)| (a.0.union(b.0), a.1.union(b.1));
+    if ids.len() >= 1 << 15 {
+        ids.par_iter()
+            .map(one)
+            .reduce(|| (Aabb::EMPTY, Aabb::EMPTY), join)
+    } else {
+        ids.iter().map(one).fold((Aabb::EMPTY, Aabb::EMPTY), join)
+    }
+}
+
+/// Builds the subtree over `ids` (whose box and centroids' box are
+/// `bounds`, from the parent's partition), appending its nodes to `nodes`
+/// in preorder, its root's parent being `parent` (an index in `nodes`).
+/// Serial subtrees append to the caller's vector; a parallel split builds
+/// its right subtree into a vector of its own, appended afterwards with its
+/// links moved: one allocation per parallel split, none per node.
+#[allow(clippy::too_many_arguments)]
+fn subtree(
+    ctx: &Ctx,
+    ids: &mut [u32],
+    first: usize,
+    depth: u32,
+    (bounds, cbounds): (Aabb, Aabb),
+    parent: u32,
+    nodes: &mut Vec<Node>,
+) {
+    let n = ids.len();
+    let id = nodes.len() as u32;
+    let leaf = |nodes: &mut Vec<Node>| {
+        nodes.push(Node {
+            bounds,
+            parent,
+            depth,
+            kind: NodeKind::Leaf {
+                first: first as u32,
+                count: n as u32,
+            },
+        })
     };
     let max_leaf = ctx.opts.max_leaf_size;
     let use_sah = match ctx.opts.builder {
@@ -229,7 +241,7 @@ fn subtree(ctx: &Ctx, ids: &mut [u32], first: usize, depth: u32) -> Tmp {
         Builder::Hybrid => depth < ctx.opts.sah_levels.min(SAH_MAX_DEPTH),
     };
     if n == 1 || (!use_sah && n <= max_leaf) {
-        return leaf();
+        return leaf(nodes);
     }
     let split: Option<Split> = if use_sah {
         best_split(
@@ -243,14 +255,14 @@ fn subtree(ctx: &Ctx, ids: &mut [u32], first: usize, depth: u32) -> Tmp {
     } else {
         None
     };
-    let (mid, axis) = match split {
+    let (mid, axis, lb, rb) = match split {
         // SAH: a leaf when it is no dearer than the best split.
-        Some(s) if n <= max_leaf && s.cost >= n as f32 => return leaf(),
+        Some(s) if n <= max_leaf && s.cost >= n as f32 => return leaf(nodes),
         Some(s) => {
-            let mid = partition(ids, |i| s.map.bin(ctx.centroids[i as usize]) < s.bin);
-            (mid, s.map.axis)
+            let (mid, lb, rb) = partition(ctx, ids, |c| s.map.bin(c) < s.bin);
+            (mid, s.map.axis, lb, rb)
         }
-        None if n <= max_leaf => return leaf(),
+        None if n <= max_leaf => return leaf(nodes),
         None => {
             // Median along the axis of largest centroid spread; ties by id, so
             // that the result does not depend on the input order.
@@ -258,72 +270,81 @@ fn subtree(ctx: &Ctx, ids: &mut [u32], first: usize, depth: u32) -> Tmp {
             let mid = n / 2;
             let key = |&i: &u32| (ctx.centroids[i as usize][axis], i);
             ids.select_nth_unstable_by(mid, |a, b| key(a).partial_cmp(&key(b)).unwrap());
-            (mid, axis)
+            let (lb, rb) = (bounds_of(ctx, &ids[..mid]), bounds_of(ctx, &ids[mid..]));
+            (mid, axis, lb, rb)
         }
     };
-    let (l, r) = ids.split_at_mut(mid);
-    let kids = if n > PARALLEL_SUBTREE {
-        rayon::join(
-            || subtree(ctx, l, first, depth + 1),
-            || subtree(ctx, r, first + mid, depth + 1),
-        )
-    } else {
-        (
-            subtree(ctx, l, first, depth + 1),
-            subtree(ctx, r, first + mid, depth + 1),
-        )
-    };
-    Tmp::Inner {
+    nodes.push(Node {
         bounds,
-        axis: axis as u8,
-        kids: Box::new([kids.0, kids.1]),
+        parent,
+        depth,
+        kind: NodeKind::Inner {
+            left: id + 1,
+            right: 0,
+            axis: axis as u8,
+        },
+    });
+    let (l, r) = ids.split_at_mut(mid);
+    let right = if n > PARALLEL_SUBTREE {
+        let mut theirs = Vec::with_capacity(2 * r.len() / max_leaf.max(1) + 1);
+        rayon::join(
+            || subtree(ctx, l, first, depth + 1, lb, id, nodes),
+            || subtree(ctx, r, first + mid, depth + 1, rb, NO_PARENT, &mut theirs),
+        );
+        let offset = nodes.len() as u32;
+        nodes.extend(theirs.into_iter().map(|mut node| {
+            node.parent = if node.parent == NO_PARENT {
+                id
+            } else {
+                node.parent + offset
+            };
+            if let NodeKind::Inner { left, right, axis } = node.kind {
+                node.kind = NodeKind::Inner {
+                    left: left + offset,
+                    right: right + offset,
+                    axis,
+                };
+            }
+            node
+        }));
+        offset
+    } else {
+        subtree(ctx, l, first, depth + 1, lb, id, nodes);
+        let right = nodes.len() as u32;
+        subtree(ctx, r, first + mid, depth + 1, rb, id, nodes);
+        right
+    };
+    if let NodeKind::Inner {
+        right: ref mut r, ..
+    } = nodes[id as usize].kind
+    {
+        *r = right;
     }
 }
 
-/// Moves the ids for which `left` holds to the front; returns how many.
-fn partition(ids: &mut [u32], left: impl Fn(u32) -> bool) -> usize {
+/// Moves the ids whose centroid `left` accepts to the front; returns how
+/// many, and the boxes and centroid boxes of the two sides.
+fn partition(
+    ctx: &Ctx,
+    ids: &mut [u32],
+    left: impl Fn(Vec3) -> bool,
+) -> (usize, (Aabb, Aabb), (Aabb, Aabb)) {
+    let (mut lb, mut lc, mut rb, mut rc) = (Aabb::EMPTY, Aabb::EMPTY, Aabb::EMPTY, Aabb::EMPTY);
     let mut mid = 0;
     for k in 0..ids.len() {
-        if left(ids[k]) {
+        let i = ids[k] as usize;
+        let (b, c) = (ctx.bounds[i], ctx.centroids[i]);
+        if left(c) {
+            lb = lb.union(b);
+            lc = lc.grow(c);
             ids.swap(mid, k);
             mid += 1;
+        } else {
+            rb = rb.union(b);
+            rc = rc.grow(c);
         }
     }
-    mid
-}
-
-/// Appends `t` to `nodes` in preorder; returns its id.
-fn flatten(t: Tmp, parent: u32, depth: u32, nodes: &mut Vec<Node>) -> u32 {
-    let id = nodes.len() as u32;
-    match t {
-        Tmp::Leaf {
-            bounds,
-            first,
-            count,
-        } => nodes.push(Node {
-            bounds,
-            parent,
-            depth,
-            kind: NodeKind::Leaf { first, count },
-        }),
-        Tmp::Inner { bounds, axis, kids } => {
-            nodes.push(Node {
-                bounds,
-                parent,
-                depth,
-                kind: NodeKind::Inner {
-                    left: id + 1,
-                    right: 0,
-                    axis,
-                },
-            });
-            let [l, r] = *kids;
-            let left = flatten(l, id, depth + 1, nodes);
-            let right = flatten(r, id, depth + 1, nodes);
-            nodes[id as usize].kind = NodeKind::Inner { left, right, axis };
-        }
-    }
-    id
+    (mid, (lb, lc), (rb, rc))
 }
 
 #[cfg(test)]

@@ -89,12 +89,14 @@ fn cells_equal_the_bvh_boxes_bit_for_bit() {
                     &BuildOptions::new(builder).with_max_leaf_size(max_leaf),
                 );
                 let h = HTree::from_bvh(&bvh, scene.triangles.clone()).unwrap();
-                let leaf_of: HashMap<u32, usize> = bvh
+                // A leaf by its triangles and box (spatial splits list a
+                // triangle in several leaves, each with its own box).
+                let leaf_of: HashMap<(Vec<u32>, [u32; 6]), usize> = bvh
                     .nodes
                     .iter()
                     .enumerate()
                     .filter(|(_, n)| n.is_leaf())
-                    .map(|(i, n)| (bvh.leaf_prims(n)[0], i))
+                    .map(|(i, n)| ((bvh.leaf_prims(n).to_vec(), bits(&n.bounds)), i))
                     .collect();
                 let inner: HashSet<[u32; 6]> = bvh
                     .nodes
@@ -107,7 +109,7 @@ fn cells_equal_the_bvh_boxes_bit_for_bit() {
                 let words = walk(
                     &h,
                     &mut |cell, prims| {
-                        let id = leaf_of[&prims[0]];
+                        let id = leaf_of[&(prims.to_vec(), bits(&cell))];
                         seen[id] += 1;
                         let n = &bvh.nodes[id];
                         assert_eq!(prims, bvh.leaf_prims(n));
