@@ -68,6 +68,10 @@ pub struct OptimizeStats {
     pub seconds: f64,
 }
 
+/// The cheapest tree seen so far: its root, each node's parent, each inner
+/// node's two children and each node's box.
+type Snapshot = (u32, Vec<u32>, Vec<[u32; 2]>, Vec<Aabb>);
+
 fn area(b: &Aabb) -> f64 {
     if b.is_empty() {
         return 0.0;
@@ -275,7 +279,7 @@ pub(super) fn optimize(bvh: &Bvh, opts: &OptimizeOptions) -> (Bvh, OptimizeStats
     let depth_limit = MAX_DEPTH.max(bvh.stats.depth);
     let mut tree = Tree::of(bvh);
     let mut best_cost = tree.cost();
-    let mut best: Option<(u32, Vec<u32>, Vec<[u32; 2]>, Vec<Aabb>)> = None;
+    let mut best: Option<Snapshot> = None;
     let batch = ((inner as f64 * opts.batch) as usize).max(1);
     for _ in 0..opts.max_rounds {
         stats.rounds += 1;
