@@ -68,10 +68,6 @@ pub struct OptimizeStats {
     pub seconds: f64,
 }
 
-/// The cheapest tree seen so far: its root, each node's parent, each inner
-/// node's two children and each node's box.
-type Snapshot = (u32, Vec<u32>, Vec<[u32; 2]>, Vec<Aabb>);
-
 fn area(b: &Aabb) -> f64 {
     if b.is_empty() {
         return 0.0;
@@ -81,6 +77,7 @@ fn area(b: &Aabb) -> f64 {
 }
 
 /// The tree as links, leaves pointing at their node in the input.
+#[derive(Clone)]
 struct Tree {
     root: u32,
     parent: Vec<u32>,
@@ -279,7 +276,7 @@ pub(super) fn optimize(bvh: &Bvh, opts: &OptimizeOptions) -> (Bvh, OptimizeStats
     let depth_limit = MAX_DEPTH.max(bvh.stats.depth);
     let mut tree = Tree::of(bvh);
     let mut best_cost = tree.cost();
-    let mut best: Option<Snapshot> = None;
+    let mut best: Option<Tree> = None;
     let batch = ((inner as f64 * opts.batch) as usize).max(1);
     for _ in 0..opts.max_rounds {
         stats.rounds += 1;
@@ -300,12 +297,7 @@ pub(super) fn optimize(bvh: &Bvh, opts: &OptimizeOptions) -> (Bvh, OptimizeStats
         let improved = cost < best_cost * (1.0 - 1e-3);
         if cost < best_cost && tree.depth() <= depth_limit {
             best_cost = cost;
-            best = Some((
-                tree.root,
-                tree.parent.clone(),
-                tree.kids.clone(),
-                tree.bounds.clone(),
-            ));
+            best = Some(tree.clone());
         }
         if !improved {
             break;
@@ -313,16 +305,7 @@ pub(super) fn optimize(bvh: &Bvh, opts: &OptimizeOptions) -> (Bvh, OptimizeStats
     }
     let out = match best {
         None => bvh.clone(),
-        Some((root, parent, kids, bounds)) => {
-            let t = Tree {
-                root,
-                parent,
-                kids,
-                bounds,
-                count: tree.count,
-            };
-            flatten(&t, bvh)
-        }
+        Some(t) => flatten(&t, bvh),
     };
     stats.sah_cost_after = out.sah_cost();
     // Rounding in the normalized sums: never report more than before.
