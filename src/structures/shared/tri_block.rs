@@ -62,9 +62,9 @@ pub fn push_leaf(blocks: &mut Vec<TriBlock>, prims: &[u32], triangles: &[Triangl
 }
 
 /// A sign-terminated leaf list's triangles copied into blocks
-/// ([`TriBlock`]), each leaf starting a new block, for the binary
-/// structures (BVH, sparse and implicit layouts), whose leaves are addressed
-/// by their position in the list: `start[p]` is the first block of the leaf
+/// ([`TriBlock`]), each leaf starting a new block, for the structures whose
+/// leaves are addressed by their position in the list (BVH, sparse,
+/// implicit, dual-split tree, BIH, H-tree, Compact BVH): `start[p]` is the first block of the leaf
 /// that begins at list position `p`. Derived from the list and the mesh
 /// when a structure is built or loaded; not part of the saved files.
 ///
