@@ -56,6 +56,7 @@ fn main() {
         ("hapala", TraversalKind::Hapala, true),
         ("bvh4", TraversalKind::Stack, false),
         ("bvh8", TraversalKind::Stack, false),
+        ("cwbvh", TraversalKind::Stack, false),
     ] {
         if only.as_deref().is_some_and(|o| o != name) {
             continue;
@@ -63,6 +64,7 @@ fn main() {
         let structure = match name {
             "bvh4" => StructureKind::Bvh4,
             "bvh8" => StructureKind::Bvh8,
+            "cwbvh" => StructureKind::Cwbvh,
             _ => StructureKind::Bvh,
         };
         let built = if s {

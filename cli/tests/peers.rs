@@ -37,8 +37,30 @@ fn every_contender_answers_as_raytree_does() {
         ..Options::quick()
     };
     let r = peers::run_scene(&scene, &opts, &|| {}).unwrap();
-    let names: Vec<&str> = r.rows.iter().map(|r| r.contender.as_str()).collect();
+    let names: Vec<&str> = r
+        .rows
+        .iter()
+        .map(|r| r.contender.as_str())
+        .filter(|&n| n != peers::FASTEST)
+        .collect();
     assert_eq!(names, peers::available());
+    // The fastest row takes, per workload, the raytree row of least time.
+    let fastest = r
+        .rows
+        .iter()
+        .find(|r| r.contender == peers::FASTEST)
+        .unwrap();
+    for (w, m) in fastest.measures.iter().enumerate() {
+        let least = r
+            .rows
+            .iter()
+            .filter(|x| peers::RAYTREE.contains(&x.contender.as_str()))
+            .map(|x| x.measures[w].seconds)
+            .fold(f64::INFINITY, f64::min);
+        assert_eq!(m.seconds, least);
+        assert!(peers::RAYTREE.contains(&fastest.picked[w].as_str()));
+    }
+    assert!(r.configs.iter().any(|c| c.contains("SIMD path")));
     if cfg!(feature = "obvhs") {
         assert!(names.contains(&"obvhs cwbvh"));
     }
@@ -52,7 +74,7 @@ fn every_contender_answers_as_raytree_does() {
             assert!(m.seconds > 0.0 && m.mrays_per_s.is_finite() && m.speed_vs_stack.is_finite());
             // Contenders sharing raytree's triangle test agree exactly;
             // Embree's own test may differ on a rare grazing ray.
-            let least = if row.contender == "embree" {
+            let least = if row.contender.starts_with("embree") {
                 0.999
             } else {
                 1.0
@@ -69,6 +91,11 @@ fn every_contender_answers_as_raytree_does() {
     let md = peers::markdown(&r);
     for name in peers::available() {
         assert!(md.contains(&format!("| {name} |")), "{md}");
+    }
+    assert!(md.contains(&format!("| **{}** (", peers::FASTEST)), "{md}");
+    if cfg!(feature = "embree") {
+        assert!(md.contains("raytree fastest vs embree high"), "{md}");
+        assert!(md.contains("scene build quality HIGH"), "{md}");
     }
 }
 

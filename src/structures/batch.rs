@@ -272,6 +272,7 @@ impl Built {
             Built::Cbvh(a) => Box::new(a),
             Built::Bvh4(a) => Box::new(a),
             Built::Bvh8(a) => Box::new(a),
+            Built::Cwbvh(a) => Box::new(a),
             Built::Brute(a) => Box::new(a),
         }
     }

@@ -13,7 +13,8 @@
 //! | `bih/` | bounding interval hierarchy (dual-split encoding) | interval traversal | Wächter and Keller 2006 |
 //! | `htree/` | H-tree | interval traversal | Havran et al. 2006 (Lin et al.'s baseline) |
 //! | `cbvh/` | Compact BVH, shared planes, 32-byte nodes | stack | Fabianowski and Dingliana 2009 (Lin et al.'s baseline) |
-//! | `wide/` | `bvh4`, `bvh8`: 4- and 8-wide nodes collapsed by SAH, child boxes side by side | nearest-first stack with distances | Ylitie et al. 2017, §3.1 (collapse) |
+//! | `wide/` | `bvh4`, `bvh8`: 4- and 8-wide nodes collapsed by SAH, child boxes side by side | nearest-first stack with distances, every SIMD path ([`simd`]) | Ylitie et al. 2017, §3.1 (collapse) |
+//! | `cwbvh/` | compressed 8-wide BVH: 80-byte nodes, child boxes in 8-bit planes | the wide kernel on decoded boxes | Ylitie et al. 2017, §3.2–3.3 |
 //! | `brute/` | every triangle: the oracle | — | — |
 
 mod batch;
@@ -21,6 +22,7 @@ pub mod bih;
 pub mod brute;
 pub mod bvh;
 pub mod cbvh;
+pub mod cwbvh;
 pub mod dst;
 pub mod htree;
 pub mod implicit;
@@ -34,6 +36,7 @@ pub use bih::Bih;
 pub use brute::BruteForce;
 pub use bvh::BinaryBvh;
 pub use cbvh::CompactBvh;
+pub use cwbvh::CwBvh;
 pub use dst::DualSplitTree;
 pub use htree::HTree;
 pub use implicit::ImplicitBvh;
@@ -42,6 +45,7 @@ pub use registry::{
     WithAccel,
 };
 pub use shared::leaf::{leaf_triangles, LAST};
+pub use shared::simd::{self, SimdPath};
 pub use shared::{stack_capacity, MAX_STACK_DEPTH};
 pub use sparse::SparseBvh;
 pub use wide::{Bvh4, Bvh8, WideBvh};

@@ -9,8 +9,8 @@ use super::implicit::{ImplicitA, ImplicitB, OnImplicit, DEFAULT_RESERVATION_LIMI
 use super::shared::stack_capacity;
 use super::sparse::{Hapala, Laine, OnSparse, Sparse, StackOnSparse};
 use super::{
-    Accel, Bih, BinaryBvh, BruteForce, Bvh4, Bvh8, CompactBvh, DualSplitTree, HTree, ImplicitBvh,
-    SparseBvh,
+    Accel, Bih, BinaryBvh, BruteForce, Bvh4, Bvh8, CompactBvh, CwBvh, DualSplitTree, HTree,
+    ImplicitBvh, SparseBvh,
 };
 use crate::bvh::Bvh;
 use crate::error::{Error, Result};
@@ -42,6 +42,8 @@ pub enum StructureKind {
     Bvh4,
     /// 8-wide BVH collapsed from the binary one by SAH.
     Bvh8,
+    /// Compressed 8-wide BVH (Ylitie et al. 2017): 80-byte nodes.
+    Cwbvh,
     /// Brute force: every triangle (the oracle).
     Brute,
 }
@@ -88,6 +90,11 @@ impl Named for StructureKind {
             StructureKind::Bvh8,
             "bvh8",
             "8-wide BVH: SAH-optimal collapse, child boxes side by side, 256-byte nodes",
+        ),
+        (
+            StructureKind::Cwbvh,
+            "cwbvh",
+            "compressed 8-wide BVH (Ylitie et al. 2017): child boxes in 8-bit planes, 80-byte nodes",
         ),
         (
             StructureKind::Brute,
@@ -196,10 +203,10 @@ impl StructureKind {
 
     /// Every structure, in the registry's order.
     pub fn all() -> &'static [StructureKind] {
-        const ALL: [StructureKind; 9] = {
+        const ALL: [StructureKind; 10] = {
             let t = <StructureKind as Named>::TABLE;
             [
-                t[0].0, t[1].0, t[2].0, t[3].0, t[4].0, t[5].0, t[6].0, t[7].0, t[8].0,
+                t[0].0, t[1].0, t[2].0, t[3].0, t[4].0, t[5].0, t[6].0, t[7].0, t[8].0, t[9].0,
             ]
         };
         &ALL
@@ -290,6 +297,8 @@ pub enum Built {
     Bvh4(Bvh4),
     /// `bvh8`.
     Bvh8(Bvh8),
+    /// `cwbvh`.
+    Cwbvh(CwBvh),
     /// `brute`, the oracle.
     Brute(BruteForce),
 }
@@ -399,6 +408,7 @@ impl Built {
             (StructureKind::Cbvh, _) => Built::Cbvh(CompactBvh::from_bvh(bvh, triangles)?),
             (StructureKind::Bvh4, _) => Built::Bvh4(Bvh4::from_bvh(bvh, triangles)?),
             (StructureKind::Bvh8, _) => Built::Bvh8(Bvh8::from_bvh(bvh, triangles)?),
+            (StructureKind::Cwbvh, _) => Built::Cwbvh(CwBvh::from_bvh(bvh, triangles)?),
             (StructureKind::Brute, _) => Built::Brute(BruteForce::new(triangles)),
         };
         let mut info = built.info(bvh);
@@ -430,6 +440,7 @@ impl Built {
             Built::Cbvh(_) => (S::Cbvh, T::Stack, "compact"),
             Built::Bvh4(_) => (S::Bvh4, T::Stack, "wide-4"),
             Built::Bvh8(_) => (S::Bvh8, T::Stack, "wide-8"),
+            Built::Cwbvh(_) => (S::Cwbvh, T::Stack, "compressed-8"),
             Built::Brute(_) => (S::Brute, T::Stack, "triangles"),
         }
     }
@@ -516,6 +527,12 @@ impl Built {
                 i.leaves = w.leaves();
                 i
             }
+            Built::Cwbvh(w) => {
+                let mut i = info(w.node_bytes(), w.index_bytes());
+                i.inner_nodes = w.inner_nodes();
+                i.leaves = w.leaves();
+                i
+            }
             Built::Brute(b) => {
                 let mut i = info(0, b.bytes());
                 i.inner_nodes = 0;
@@ -541,6 +558,7 @@ impl Built {
             Built::Cbvh(c) => c.save(s),
             Built::Bvh4(w) => w.save(s),
             Built::Bvh8(w) => w.save(s),
+            Built::Cwbvh(w) => w.save(s),
             Built::Brute(_) => {}
             _ => unreachable!("sparse layouts saved above"),
         }
@@ -590,6 +608,7 @@ impl Built {
             (S::Cbvh, _, "compact") => Built::Cbvh(CompactBvh::load(s, triangles)?),
             (S::Bvh4, _, "wide-4") => Built::Bvh4(Bvh4::load(s, triangles)?),
             (S::Bvh8, _, "wide-8") => Built::Bvh8(Bvh8::load(s, triangles)?),
+            (S::Cwbvh, _, "compressed-8") => Built::Cwbvh(CwBvh::load(s, triangles)?),
             (S::Brute, _, "triangles") => Built::Brute(BruteForce::new(triangles)),
             _ => {
                 return Err(format!(
@@ -645,6 +664,7 @@ impl Built {
             Built::Cbvh(a) => w.run(a),
             Built::Bvh4(a) => w.run(a),
             Built::Bvh8(a) => w.run(a),
+            Built::Cwbvh(a) => w.run(a),
             Built::Brute(a) => w.run(a),
         }
     }
@@ -695,6 +715,7 @@ mod tests {
                 "cbvh",
                 "bvh4",
                 "bvh8",
+                "cwbvh",
                 "brute"
             ]
         );
@@ -740,7 +761,7 @@ mod tests {
         let e = "bvh16".parse::<StructureKind>().unwrap_err().to_string();
         assert_eq!(
             e,
-            "unknown structure 'bvh16' (known: bvh, dst, dst-similar, bih, htree, cbvh, bvh4, bvh8, brute)"
+            "unknown structure 'bvh16' (known: bvh, dst, dst-similar, bih, htree, cbvh, bvh4, bvh8, cwbvh, brute)"
         );
     }
 }

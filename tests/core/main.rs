@@ -20,6 +20,7 @@ mod saved;
 mod sbvh;
 mod scenes;
 mod shared_meshes;
+mod simd_paths;
 mod soups;
 mod stackless;
 mod watertight;

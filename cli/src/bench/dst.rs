@@ -25,14 +25,18 @@ use raytree::structures::htree::HtreeStats;
 use raytree::structures::{Accel, Built, StructureKind, TraversalKind, WithAccel};
 use serde::Serialize;
 
-/// The structures of Table 1, in the paper's order.
-pub const STRUCTURES: [StructureKind; 6] = [
+/// The structures of Table 1, in the paper's order, then the wide BVHs beside
+/// them (`bvh4`, `bvh8`, and `cwbvh`, the storage-lean wide layout).
+pub const STRUCTURES: [StructureKind; 9] = [
     StructureKind::Bvh,
     StructureKind::Dst,
     StructureKind::DstSimilar,
     StructureKind::Bih,
     StructureKind::Htree,
     StructureKind::Cbvh,
+    StructureKind::Bvh4,
+    StructureKind::Bvh8,
+    StructureKind::Cwbvh,
 ];
 
 /// Image size and frame count of a run.

@@ -19,6 +19,9 @@ pub struct Machine {
     /// SIMD extensions compiled in beyond the target's baseline: on x86-64,
     /// present with `-C target-cpu=native` (or explicit target features).
     pub simd: Vec<&'static str>,
+    /// The SIMD path the wide kernels (`bvh4`, `bvh8`, `cwbvh`) ran on,
+    /// chosen at run time ([`raytree::structures::simd`]).
+    pub simd_path: &'static str,
 }
 
 /// x86-64 extensions past its SSE2 baseline that change the code the
@@ -45,6 +48,7 @@ impl Machine {
             threads: threads.to_vec(),
             release: !cfg!(debug_assertions),
             simd: EXTENSIONS.iter().filter(|e| e.1).map(|e| e.0).collect(),
+            simd_path: raytree::structures::simd::active().describe(),
         }
     }
 
@@ -62,10 +66,11 @@ impl Machine {
         };
         let threads: Vec<String> = self.threads.iter().map(|t| t.to_string()).collect();
         format!(
-            "machine: {}, {} logical cores; {} threads; {build}; {simd}",
+            "machine: {}, {} logical cores; {} threads; {build}; {simd}; wide kernels on the {} SIMD path (chosen at run time)",
             self.cpu,
             self.logical_cores,
-            threads.join(" and ")
+            threads.join(" and "),
+            self.simd_path
         )
     }
 }
@@ -115,6 +120,13 @@ mod tests {
         assert_eq!(m.release, !cfg!(debug_assertions));
         let line = m.describe();
         assert!(line.contains("1 and 3 threads"), "{line}");
+        assert!(
+            line.contains(&format!(
+                "wide kernels on the {} SIMD path",
+                raytree::structures::simd::active().describe()
+            )),
+            "{line}"
+        );
         assert!(line.contains(if m.release {
             "release build"
         } else {

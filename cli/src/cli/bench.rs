@@ -219,6 +219,16 @@ fn run_peers(a: PeersArgs) -> Result<()> {
     }
     bar.finish_and_clear();
     say!("Mrays/s from the median of {} runs on all threads; (×) is the speed over raytree's BVH with STACK, same run. primary and path: closest hit; ao: any hit.", opts.repeats);
+    for peer in ["embree high", "embree medium", "obvhs cwbvh"] {
+        if let Some(g) = peers::geomean_ratios(&results, peers::FASTEST, peer) {
+            let cells: Vec<String> = g.iter().map(|(w, r)| format!("{w} {r:.2}×")).collect();
+            say!(
+                "geometric mean over {} scenes, raytree fastest vs {peer} (above 1: raytree faster): {}",
+                results.len(),
+                cells.join(", ")
+            );
+        }
+    }
     if let Some(p) = &a.json {
         common::write_bench_json(p, &machine, &results)?;
     }

@@ -5,7 +5,7 @@ use super::out::say;
 use clap::Args;
 use raytree::bvh::BuildStats;
 use raytree::error::Result;
-use raytree::structures::{Built, StructureInfo, StructureKind, TraversalKind};
+use raytree::structures::{simd, Built, StructureInfo, StructureKind, TraversalKind};
 use serde::Serialize;
 use std::path::PathBuf;
 
@@ -23,10 +23,37 @@ struct InfoReport {
     #[serde(flatten)]
     scene: SceneReport,
     bvh: BuildStats,
+    /// The SIMD path the wide kernels run on, and the ones this processor
+    /// offers.
+    simd: SimdReport,
     structures: Vec<StructureInfo>,
     /// Structures that cannot be built for this scene, with the limit that
     /// stops them.
     refused: Vec<Refused>,
+}
+
+#[derive(Serialize)]
+pub struct SimdReport {
+    pub active: &'static str,
+    pub supported: Vec<&'static str>,
+}
+
+impl SimdReport {
+    pub fn detect() -> Self {
+        SimdReport {
+            active: simd::active().name(),
+            supported: simd::supported().iter().map(|p| p.name()).collect(),
+        }
+    }
+
+    /// One line: the path that runs and the ones this processor offers.
+    pub fn describe(&self) -> String {
+        format!(
+            "{} (this processor: {}; RAYTREE_SIMD forces one)",
+            simd::active().describe(),
+            self.supported.join(", ")
+        )
+    }
 }
 
 #[derive(Serialize)]
@@ -61,6 +88,7 @@ pub fn run(args: InfoArgs) -> Result<()> {
     let r = InfoReport {
         scene: scene_report,
         bvh: bvh_stats,
+        simd: SimdReport::detect(),
         structures,
         refused,
     };
@@ -124,6 +152,7 @@ pub fn run(args: InfoArgs) -> Result<()> {
             o.sah_cost_before, o.sah_cost_after, o.reinsertions, o.rounds, o.seconds
         );
     }
+    say!("simd        {}", r.simd.describe());
     say!();
     let bvh = r
         .structures

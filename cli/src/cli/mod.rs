@@ -68,14 +68,17 @@ pub fn main() -> ExitCode {
         eprintln!("raytree: interrupted; unfinished output files removed");
         std::process::exit(130);
     });
-    // A bad memory limit is refused before any work.
-    let result = raytree::scene::memory::available_bytes().and_then(|_| match cli.command {
-        Command::Render(a) => render::run(a),
-        Command::Trace(a) => trace::run(a),
-        Command::Info(a) => info::run(a),
-        Command::Build(a) => build::run(a),
-        Command::Bench(c) => bench::run(c),
-    });
+    // A bad memory limit or SIMD path is refused before any work.
+    let result = raytree::scene::memory::available_bytes()
+        .and_then(|_| raytree::structures::simd::from_env())
+        .and_then(|forced| forced.map_or(Ok(()), raytree::structures::simd::set_active))
+        .and_then(|_| match cli.command {
+            Command::Render(a) => render::run(a),
+            Command::Trace(a) => trace::run(a),
+            Command::Info(a) => info::run(a),
+            Command::Build(a) => build::run(a),
+            Command::Bench(c) => bench::run(c),
+        });
     match result {
         // Its line is already on stderr.
         Ok(()) if out::failed() => ExitCode::FAILURE,

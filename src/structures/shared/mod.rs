@@ -3,12 +3,14 @@
 //! ([`leaf`]), the own-box node of the stackless paper's layouts and the node
 //! step of the seven binary traversals over it ([`own_box`]), the plane
 //! interval arithmetic of the interval traversals ([`interval`]), leaves of
-//! triangles tested four at a time ([`tri_block`]), and the
+//! triangles tested four at a time ([`tri_block`]), the run-time choice of
+//! vector instruction set ([`simd`]), and the
 //! sizing of traversal stacks (here).
 
 pub mod interval;
 pub mod leaf;
 pub mod own_box;
+pub mod simd;
 pub mod tri_block;
 
 /// The deepest tree a fixed-size traversal stack holds: a stack traversal

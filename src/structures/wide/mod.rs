@@ -22,10 +22,11 @@
 //!   node references with their entry distances, so that popped entries
 //!   farther than the closest hit are skipped.
 
-mod collapse;
-mod saved;
-mod traverse;
+pub(crate) mod collapse;
+pub(crate) mod saved;
+pub(crate) mod traverse;
 
+use super::shared::simd::SimdPath;
 use super::shared::tri_block::{self, TriBlock};
 use super::shared::MAX_STACK_DEPTH;
 use super::Accel;
@@ -251,11 +252,38 @@ impl<const W: usize> Accel for WideBvh<W> {
     }
 
     fn closest_hit<S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
-        traverse::trace::<W, S, false>(self, ray, stats)
+        traverse::trace::<W, Self, S, false>(self, ray, stats)
     }
 
     fn any_hit<S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
-        traverse::trace::<W, S, true>(self, ray, stats)
+        traverse::trace::<W, Self, S, true>(self, ray, stats)
+    }
+}
+
+impl<const W: usize> WideBvh<W> {
+    /// [`Accel::closest_hit`] (`any = false`) or [`Accel::any_hit`] on SIMD
+    /// path `path` rather than the active one, so that a test can run every
+    /// path the processor has.
+    ///
+    /// # Errors
+    /// [`Error::Invalid`] if this processor cannot run `path`.
+    pub fn trace_on<S: Stats>(
+        &self,
+        path: SimdPath,
+        ray: &Ray,
+        any: bool,
+        stats: &mut S,
+    ) -> Result<Option<Hit>> {
+        if !path.supported() {
+            return Err(Error::Invalid(format!(
+                "SIMD path {path} does not run here"
+            )));
+        }
+        Ok(if any {
+            traverse::trace_on::<W, Self, S, true>(path, self, ray, stats)
+        } else {
+            traverse::trace_on::<W, Self, S, false>(path, self, ray, stats)
+        })
     }
 }
 

@@ -103,7 +103,7 @@ impl<const W: usize> WideBvh<W> {
             }
             if r & LEAF != 0 {
                 let first = (r & !LEAF) as usize;
-                used += leaf_blocks(&blocks, first, &triangles, &mut covered)?;
+                used += leaf_blocks(&blocks, first, &triangles, &mut covered, "wide.blocks")?;
                 starts.insert(first);
                 leaves += 1;
                 continue;
@@ -166,15 +166,15 @@ impl<const W: usize> WideBvh<W> {
     }
 }
 
-/// Checks the blocks of the leaf starting at block `first` and marks them
-/// in `covered`; returns how many there are.
-fn leaf_blocks(
+/// Checks the blocks of the leaf starting at block `first` (of the section
+/// named `what`) and marks them in `covered`; returns how many there are.
+pub(crate) fn leaf_blocks(
     blocks: &[TriBlock],
     first: usize,
     triangles: &[Triangle],
     covered: &mut Bits,
+    what: &str,
 ) -> Result<usize, String> {
-    let what = "wide.blocks";
     let mut i = first;
     loop {
         let b = blocks.get(i).ok_or_else(|| {

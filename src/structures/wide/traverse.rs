@@ -1,91 +1,391 @@
-//! Closest and any hit over a wide BVH: every child's box tested in one pass
-//! over the node's plane rows (the loops over `W` lanes compile to vector
-//! instructions), hit children visited nearest first, a stack of references
-//! with entry distances, and popped entries beyond the closest hit skipped.
+//! Closest and any hit over a wide tree (`bvh4`, `bvh8`, `cwbvh`): every
+//! child's box tested in one pass, hit children visited nearest first, a
+//! stack of references with entry distances, and popped entries beyond the
+//! closest hit skipped.
+//!
+//! The kernel is written once over two traits: [`WideTree`] (how a layout
+//! stores a node's child boxes and references) and [`Isa`] (the vector
+//! instruction set that tests them). [`trace`] runs it on the path
+//! [`simd::active`] names: each x86-64 path is the same kernel compiled
+//! inside a `#[target_feature]` function, with its own box test in
+//! intrinsics. Every path computes the slab test's f32 operations in the
+//! same order, so a ray's answer, its visit order and its statistics are the
+//! same on every path.
 
-use super::{WideBvh, WideNode, LEAF};
+use super::{WideNode, LEAF};
 use crate::geometry::aabb::ROBUST_WIDENING;
-use crate::geometry::{BoxRay, Hit, Ray};
+use crate::geometry::{Hit, Ray, Triangle};
 use crate::stats::Stats;
 use crate::structures::shared::leaf::enter;
-use crate::structures::shared::tri_block::intersect_blocks;
+use crate::structures::shared::simd::{self, SimdPath};
+use crate::structures::shared::tri_block::{intersect_blocks, TriBlock};
 
-/// Entry distances of the `W` children of `n` (`+inf` for a miss or an
-/// empty lane): the slab test of [`BoxRay::test`], lane by lane, bit for bit
-/// the distances the binary layouts' tests give. `near[a]` and `far[a]` are
-/// the plane rows nearer and farther on axis `a` for this ray's direction.
-#[inline(always)]
-fn test_children<const W: usize>(
-    br: &BoxRay,
-    near: &[usize; 3],
-    far: &[usize; 3],
-    n: &WideNode<W>,
-    tmin: f32,
-    tmax: f32,
-) -> [f32; W] {
-    let mut tn = [tmin; W];
-    let mut tf = [f32::INFINITY; W];
-    for a in 0..3 {
-        let (o, inv) = (br.org[a], br.inv[a]);
-        let (lo, hi) = (&n.planes[near[a]], &n.planes[far[a]]);
-        for k in 0..W {
-            // A NaN distance (0·inf: origin in the plane, direction along
-            // it) keeps the running bound, as the slab test ignores it.
-            let t = (lo[k] - o) * inv;
-            tn[k] = if t > tn[k] { t } else { tn[k] };
-            let t = (hi[k] - o) * inv;
-            tf[k] = if t < tf[k] { t } else { tf[k] };
-        }
-    }
-    std::array::from_fn(|k| {
-        let f = tf[k] + tf[k].abs() * ROBUST_WIDENING;
-        let n = tn[k] - tn[k].abs() * ROBUST_WIDENING;
-        let f = if tmax < f { tmax } else { f };
-        if n <= f {
-            n
-        } else {
-            f32::INFINITY
-        }
-    })
+/// A ray's constants for the box tests of one trace: origin, reciprocal
+/// direction, and per axis the plane row nearer (`near`) and farther
+/// (`far`) along the ray (rows 0–2 are minima, 3–5 maxima).
+pub struct NodeRay {
+    pub org: [f32; 3],
+    pub inv: [f32; 3],
+    pub near: [usize; 3],
+    pub far: [usize; 3],
+    pub tmin: f32,
 }
 
-/// Closest hit (`ANY = false`) or any hit.
+/// The children of one node a ray enters: `count` entries, in lane order,
+/// `dist[i]` the entry distance of reference `refs[i]`.
+pub struct Entered<const W: usize> {
+    pub dist: [f32; W],
+    pub refs: [u32; W],
+    pub count: usize,
+}
+
+/// A vector instruction set's box test of a node's `W` children.
+pub trait Isa {
+    /// The entry distance of each lane (meaningful where its bit is set)
+    /// and a mask of the lanes whose box the ray enters within
+    /// `[ray.tmin, tmax]`: the slab test of [`crate::geometry::BoxRay::test`]
+    /// on every lane, bit for bit.
+    fn test<const W: usize>(r: &NodeRay, planes: &[[f32; W]; 6], tmax: f32) -> ([f32; W], u32);
+}
+
+/// A wide tree as the kernel reads it.
+pub trait WideTree<const W: usize> {
+    /// The root's reference (a node index, or `LEAF` | a block index).
+    fn root(&self) -> u32;
+    /// The scene box, tested first.
+    fn root_bounds(&self) -> [f32; 6];
+    /// Whether the tree holds no triangle.
+    fn is_empty(&self) -> bool;
+    /// Wide levels below the root (sizes the stack).
+    fn depth(&self) -> u32;
+    /// The leaves' triangle blocks.
+    fn blocks(&self) -> &[TriBlock];
+    /// The mesh.
+    fn triangles(&self) -> &[Triangle];
+    /// The children of inner node `node` that the ray enters, in lane
+    /// order, and the planes tested (for the statistics).
+    fn enter<I: Isa>(&self, node: u32, r: &NodeRay, tmax: f32) -> (Entered<W>, u32);
+    /// The canonical BVH id of reference `r` (visit logs).
+    fn canonical_id(&self, r: u32) -> u32;
+}
+
+/// Gathers the lanes of `mask` (entry distances `d`, references `refs`) in
+/// lane order.
+#[inline(always)]
+pub fn gather<const W: usize>(d: &[f32; W], refs: &[u32; W], mut mask: u32) -> Entered<W> {
+    let mut e = Entered {
+        dist: [0.0; W],
+        refs: [0; W],
+        count: 0,
+    };
+    while mask != 0 {
+        let k = mask.trailing_zeros() as usize;
+        mask &= mask - 1;
+        e.dist[e.count] = d[k];
+        e.refs[e.count] = refs[k];
+        e.count += 1;
+    }
+    e
+}
+
+/// The portable box test: plain loops over the lanes, which the compiler
+/// turns into the target's baseline vectors (and wider ones inside the
+/// x86-64 paths' functions).
+pub struct Portable;
+
+impl Isa for Portable {
+    #[inline(always)]
+    fn test<const W: usize>(r: &NodeRay, planes: &[[f32; W]; 6], tmax: f32) -> ([f32; W], u32) {
+        let mut tn = [r.tmin; W];
+        let mut tf = [f32::INFINITY; W];
+        for a in 0..3 {
+            let (o, inv) = (r.org[a], r.inv[a]);
+            let (lo, hi) = (&planes[r.near[a]], &planes[r.far[a]]);
+            for k in 0..W {
+                // A NaN distance (0·inf: origin in the plane, direction along
+                // it) keeps the running bound, as the slab test ignores it.
+                let t = (lo[k] - o) * inv;
+                tn[k] = if t > tn[k] { t } else { tn[k] };
+                let t = (hi[k] - o) * inv;
+                tf[k] = if t < tf[k] { t } else { tf[k] };
+            }
+        }
+        let mut mask = 0;
+        for k in 0..W {
+            let f = tf[k] + tf[k].abs() * ROBUST_WIDENING;
+            let n = tn[k] - tn[k].abs() * ROBUST_WIDENING;
+            let f = if tmax < f { tmax } else { f };
+            tn[k] = n;
+            mask |= ((n <= f) as u32) << k;
+        }
+        (tn, mask)
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+mod x86 {
+    //! The x86-64 paths' box tests in intrinsics. `max_ps(t, acc)` is
+    //! `t > acc ? t : acc` and `min_ps(t, acc)` is `t < acc ? t : acc`,
+    //! which keep the running bound on a NaN distance as the portable test
+    //! does; no multiply-add is fused, so every lane's distance is the
+    //! portable test's bit for bit.
+    use super::{Isa, NodeRay, ROBUST_WIDENING};
+    use std::arch::x86_64::*;
+
+    /// SSE4.1: four lanes per instruction.
+    pub struct Sse41;
+    /// AVX2: eight lanes per instruction.
+    pub struct Avx2;
+    /// AVX-512 (VL): eight lanes, the comparison into a mask register.
+    pub struct Avx512;
+
+    #[target_feature(enable = "sse4.1")]
+    #[inline]
+    fn test4_sse(r: &NodeRay, p: [*const f32; 6], tmax: f32) -> (__m128, u32) {
+        let mut tn = _mm_set1_ps(r.tmin);
+        let mut tf = _mm_set1_ps(f32::INFINITY);
+        for a in 0..3 {
+            let o = _mm_set1_ps(r.org[a]);
+            let inv = _mm_set1_ps(r.inv[a]);
+            // SAFETY: `p[row]` points at four readable floats (a plane row
+            // of a node or half of one), as `test` below makes them.
+            let (lo, hi) = unsafe { (_mm_loadu_ps(p[r.near[a]]), _mm_loadu_ps(p[r.far[a]])) };
+            tn = _mm_max_ps(_mm_mul_ps(_mm_sub_ps(lo, o), inv), tn);
+            tf = _mm_min_ps(_mm_mul_ps(_mm_sub_ps(hi, o), inv), tf);
+        }
+        let w = _mm_set1_ps(ROBUST_WIDENING);
+        let sign = _mm_set1_ps(-0.0);
+        let f = _mm_add_ps(tf, _mm_mul_ps(_mm_andnot_ps(sign, tf), w));
+        let n = _mm_sub_ps(tn, _mm_mul_ps(_mm_andnot_ps(sign, tn), w));
+        let f = _mm_min_ps(_mm_set1_ps(tmax), f);
+        let mask = _mm_movemask_ps(_mm_cmple_ps(n, f)) as u32;
+        (n, mask)
+    }
+
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    fn test8_avx2(r: &NodeRay, p: [*const f32; 6], tmax: f32) -> (__m256, __m256) {
+        let mut tn = _mm256_set1_ps(r.tmin);
+        let mut tf = _mm256_set1_ps(f32::INFINITY);
+        for a in 0..3 {
+            let o = _mm256_set1_ps(r.org[a]);
+            let inv = _mm256_set1_ps(r.inv[a]);
+            // SAFETY: `p[row]` points at a plane row of eight floats.
+            let (lo, hi) = unsafe { (_mm256_loadu_ps(p[r.near[a]]), _mm256_loadu_ps(p[r.far[a]])) };
+            tn = _mm256_max_ps(_mm256_mul_ps(_mm256_sub_ps(lo, o), inv), tn);
+            tf = _mm256_min_ps(_mm256_mul_ps(_mm256_sub_ps(hi, o), inv), tf);
+        }
+        let w = _mm256_set1_ps(ROBUST_WIDENING);
+        let sign = _mm256_set1_ps(-0.0);
+        let f = _mm256_add_ps(tf, _mm256_mul_ps(_mm256_andnot_ps(sign, tf), w));
+        let n = _mm256_sub_ps(tn, _mm256_mul_ps(_mm256_andnot_ps(sign, tn), w));
+        let f = _mm256_min_ps(_mm256_set1_ps(tmax), f);
+        (n, f)
+    }
+
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    fn test_avx2<const W: usize>(
+        r: &NodeRay,
+        planes: &[[f32; W]; 6],
+        tmax: f32,
+    ) -> ([f32; W], u32) {
+        let p = planes.each_ref().map(|row| row.as_ptr());
+        let mut d = [0.0; W];
+        if W == 8 {
+            let (n, f) = test8_avx2(r, p, tmax);
+            // SAFETY: `d` holds eight floats.
+            unsafe { _mm256_storeu_ps(d.as_mut_ptr(), n) };
+            (
+                d,
+                _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(n, f)) as u32,
+            )
+        } else {
+            debug_assert_eq!(W, 4);
+            let (n, mask) = test4_sse(r, p, tmax);
+            // SAFETY: `d` holds four floats.
+            unsafe { _mm_storeu_ps(d.as_mut_ptr(), n) };
+            (d, mask)
+        }
+    }
+
+    #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
+    #[inline]
+    fn test_avx512<const W: usize>(
+        r: &NodeRay,
+        planes: &[[f32; W]; 6],
+        tmax: f32,
+    ) -> ([f32; W], u32) {
+        let p = planes.each_ref().map(|row| row.as_ptr());
+        let mut d = [0.0; W];
+        if W == 8 {
+            let (n, f) = test8_avx2(r, p, tmax);
+            // SAFETY: `d` holds eight floats.
+            unsafe { _mm256_storeu_ps(d.as_mut_ptr(), n) };
+            (d, _mm256_cmp_ps_mask::<_CMP_LE_OQ>(n, f) as u32)
+        } else {
+            debug_assert_eq!(W, 4);
+            let (n, mask) = test4_sse(r, p, tmax);
+            // SAFETY: `d` holds four floats.
+            unsafe { _mm_storeu_ps(d.as_mut_ptr(), n) };
+            (d, mask)
+        }
+    }
+
+    #[target_feature(enable = "sse4.1")]
+    #[inline]
+    fn test_sse<const W: usize>(r: &NodeRay, planes: &[[f32; W]; 6], tmax: f32) -> ([f32; W], u32) {
+        let mut d = [0.0; W];
+        let mut mask = 0;
+        for half in 0..W / 4 {
+            // SAFETY: each row holds W = 4·(W/4) floats; this half's four
+            // start at `4·half`.
+            let p = planes
+                .each_ref()
+                .map(|row| unsafe { row.as_ptr().add(4 * half) });
+            let (n, m) = test4_sse(r, p, tmax);
+            // SAFETY: `d` holds W floats; this half's four start at `4·half`.
+            unsafe { _mm_storeu_ps(d.as_mut_ptr().add(4 * half), n) };
+            mask |= m << (4 * half);
+        }
+        (d, mask)
+    }
+
+    impl Isa for Sse41 {
+        #[inline(always)]
+        fn test<const W: usize>(r: &NodeRay, planes: &[[f32; W]; 6], tmax: f32) -> ([f32; W], u32) {
+            // SAFETY: this path runs only inside `trace_sse41`, which runs
+            // only where the processor has SSE4.1 (`simd::active`).
+            unsafe { test_sse(r, planes, tmax) }
+        }
+    }
+
+    impl Isa for Avx2 {
+        #[inline(always)]
+        fn test<const W: usize>(r: &NodeRay, planes: &[[f32; W]; 6], tmax: f32) -> ([f32; W], u32) {
+            // SAFETY: this path runs only inside `trace_avx2`, which runs
+            // only where the processor has AVX2 and FMA.
+            unsafe { test_avx2(r, planes, tmax) }
+        }
+    }
+
+    impl Isa for Avx512 {
+        #[inline(always)]
+        fn test<const W: usize>(r: &NodeRay, planes: &[[f32; W]; 6], tmax: f32) -> ([f32; W], u32) {
+            // SAFETY: this path runs only inside `trace_avx512`, which runs
+            // only where the processor has AVX-512 F, VL, DQ and BW.
+            unsafe { test_avx512(r, planes, tmax) }
+        }
+    }
+}
+
+/// Closest hit (`ANY = false`) or any hit, on the active SIMD path.
 #[inline]
-pub fn trace<const W: usize, S: Stats, const ANY: bool>(
-    w: &WideBvh<W>,
+pub fn trace<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool>(
+    w: &T,
     ray: &Ray,
     stats: &mut S,
 ) -> Option<Hit> {
-    // A stack holds at most W − 1 pending children per level.
-    match w.depth as usize * (W - 1) + 1 {
-        0..=16 => trace_n::<W, S, ANY, 16>(w, ray, stats),
-        17..=32 => trace_n::<W, S, ANY, 32>(w, ray, stats),
-        33..=64 => trace_n::<W, S, ANY, 64>(w, ray, stats),
-        65..=128 => trace_n::<W, S, ANY, 128>(w, ray, stats),
-        129..=256 => trace_n::<W, S, ANY, 256>(w, ray, stats),
-        257..=512 => trace_n::<W, S, ANY, 512>(w, ray, stats),
-        _ => trace_n::<W, S, ANY, 1024>(w, ray, stats),
+    trace_on::<W, T, S, ANY>(simd::active(), w, ray, stats)
+}
+
+/// [`trace`] on `path`, which must be one this processor runs
+/// ([`SimdPath::supported`]); an unsupported path runs the portable one.
+#[inline]
+pub fn trace_on<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool>(
+    path: SimdPath,
+    w: &T,
+    ray: &Ray,
+    stats: &mut S,
+) -> Option<Hit> {
+    match path {
+        #[cfg(target_arch = "x86_64")]
+        SimdPath::Avx512 => {
+            // SAFETY: `simd::active` and `set_active` only name paths the
+            // processor supports; tests pass only supported ones.
+            unsafe { trace_avx512::<W, T, S, ANY>(w, ray, stats) }
+        }
+        #[cfg(target_arch = "x86_64")]
+        SimdPath::Avx2 => {
+            // SAFETY: as above, AVX2 and FMA are present.
+            unsafe { trace_avx2::<W, T, S, ANY>(w, ray, stats) }
+        }
+        #[cfg(target_arch = "x86_64")]
+        SimdPath::Sse41 => {
+            // SAFETY: as above, SSE4.1 is present.
+            unsafe { trace_sse41::<W, T, S, ANY>(w, ray, stats) }
+        }
+        _ => trace_sized::<W, T, S, ANY, Portable>(w, ray, stats),
     }
 }
 
-#[inline]
-fn trace_n<const W: usize, S: Stats, const ANY: bool, const N: usize>(
-    w: &WideBvh<W>,
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
+fn trace_avx512<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool>(
+    w: &T,
+    ray: &Ray,
+    stats: &mut S,
+) -> Option<Hit> {
+    trace_sized::<W, T, S, ANY, x86::Avx512>(w, ray, stats)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn trace_avx2<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool>(
+    w: &T,
+    ray: &Ray,
+    stats: &mut S,
+) -> Option<Hit> {
+    trace_sized::<W, T, S, ANY, x86::Avx2>(w, ray, stats)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "sse4.1")]
+fn trace_sse41<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool>(
+    w: &T,
+    ray: &Ray,
+    stats: &mut S,
+) -> Option<Hit> {
+    trace_sized::<W, T, S, ANY, x86::Sse41>(w, ray, stats)
+}
+
+/// Picks the stack for the tree's depth: it holds at most `W − 1` pending
+/// children per level.
+#[inline(always)]
+fn trace_sized<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool, I: Isa>(
+    w: &T,
+    ray: &Ray,
+    stats: &mut S,
+) -> Option<Hit> {
+    match w.depth() as usize * (W - 1) + 1 {
+        0..=64 => trace_n::<W, T, S, ANY, I, 64>(w, ray, stats),
+        65..=256 => trace_n::<W, T, S, ANY, I, 256>(w, ray, stats),
+        _ => trace_n::<W, T, S, ANY, I, 1024>(w, ray, stats),
+    }
+}
+
+#[inline(always)]
+fn trace_n<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool, I: Isa, const N: usize>(
+    w: &T,
     ray: &Ray,
     stats: &mut S,
 ) -> Option<Hit> {
     if w.is_empty() {
         return None;
     }
-    let (br, mut tally) = enter(ray, &w.root_bounds.to_array(), stats)?;
-    let near: [usize; 3] = std::array::from_fn(|a| a + 3 * br.neg[a] as usize);
-    let far: [usize; 3] = std::array::from_fn(|a| a + 3 * !br.neg[a] as usize);
-    let tmin = ray.tmin;
+    let (br, mut tally) = enter(ray, &w.root_bounds(), stats)?;
+    let r = NodeRay {
+        org: br.org,
+        inv: br.inv,
+        near: std::array::from_fn(|a| a + 3 * br.neg[a] as usize),
+        far: std::array::from_fn(|a| a + 3 * !br.neg[a] as usize),
+        tmin: ray.tmin,
+    };
     let mut tmax = ray.tmax;
     let mut best: Option<Hit> = None;
     let mut stack = [(0u32, 0f32); N];
     let mut sp = 0;
-    let mut node = w.root;
+    let mut node = w.root();
     'visit: loop {
         tally.nodes += 1;
         if S::LOGS {
@@ -93,9 +393,9 @@ fn trace_n<const W: usize, S: Stats, const ANY: bool, const N: usize>(
         }
         if node & LEAF != 0 {
             if intersect_blocks::<ANY, S>(
-                &w.blocks,
+                w.blocks(),
                 node & !LEAF,
-                &w.triangles,
+                w.triangles(),
                 ray,
                 &mut tmax,
                 &mut best,
@@ -105,33 +405,31 @@ fn trace_n<const W: usize, S: Stats, const ANY: bool, const N: usize>(
                 break;
             }
         } else {
-            let n = &w.nodes[node as usize];
-            tally.planes += 6 * n.child_count() as u32;
-            let d = test_children(&br, &near, &far, n, tmin, tmax);
-            let mut hit = [(0f32, 0u32); W];
-            let mut m = 0;
-            for (&t, &child) in d.iter().zip(&n.children) {
-                if t != f32::INFINITY {
-                    hit[m] = (t, child);
-                    m += 1;
-                }
+            let (mut e, planes) = w.enter::<I>(node, &r, tmax);
+            tally.planes += planes;
+            let m = e.count;
+            if m == 1 {
+                node = e.refs[0];
+                continue;
             }
-            if m > 0 {
+            if m > 1 {
                 // Nearest first; equal distances keep lane order.
                 for i in 1..m {
-                    let x = hit[i];
+                    let (t, c) = (e.dist[i], e.refs[i]);
                     let mut j = i;
-                    while j > 0 && hit[j - 1].0 > x.0 {
-                        hit[j] = hit[j - 1];
+                    while j > 0 && e.dist[j - 1] > t {
+                        e.dist[j] = e.dist[j - 1];
+                        e.refs[j] = e.refs[j - 1];
                         j -= 1;
                     }
-                    hit[j] = x;
+                    e.dist[j] = t;
+                    e.refs[j] = c;
                 }
-                for &(t, r) in hit[1..m].iter().rev() {
-                    stack[sp] = (r, t);
+                for i in (1..m).rev() {
+                    stack[sp] = (e.refs[i], e.dist[i]);
                     sp += 1;
                 }
-                node = hit[0].1;
+                node = e.refs[0];
                 continue;
             }
         }
@@ -149,4 +447,40 @@ fn trace_n<const W: usize, S: Stats, const ANY: bool, const N: usize>(
     }
     stats.add(tally);
     best
+}
+
+impl<const W: usize> WideTree<W> for super::WideBvh<W> {
+    #[inline(always)]
+    fn root(&self) -> u32 {
+        self.root
+    }
+    #[inline(always)]
+    fn root_bounds(&self) -> [f32; 6] {
+        self.root_bounds.to_array()
+    }
+    #[inline(always)]
+    fn is_empty(&self) -> bool {
+        self.blocks.is_empty()
+    }
+    #[inline(always)]
+    fn depth(&self) -> u32 {
+        self.depth
+    }
+    #[inline(always)]
+    fn blocks(&self) -> &[TriBlock] {
+        &self.blocks
+    }
+    #[inline(always)]
+    fn triangles(&self) -> &[Triangle] {
+        &self.triangles
+    }
+    #[inline(always)]
+    fn enter<I: Isa>(&self, node: u32, r: &NodeRay, tmax: f32) -> (Entered<W>, u32) {
+        let n: &WideNode<W> = &self.nodes[node as usize];
+        let (d, mask) = I::test::<W>(r, &n.planes, tmax);
+        (gather(&d, &n.children, mask), 6 * n.child_count() as u32)
+    }
+    fn canonical_id(&self, r: u32) -> u32 {
+        super::WideBvh::canonical_id(self, r)
+    }
 }

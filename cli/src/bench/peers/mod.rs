@@ -8,10 +8,15 @@
 //! - path: the bounce rays of one path-traced frame (5 diffuse bounces, the
 //!   dual-split paper's workload), closest hit (incoherent, long).
 //!
-//! Every contender traces each set on all threads, the contenders taking
-//! turns, several times; the median time gives Mrays/s, reported beside the
-//! ratio to raytree's BVH with STACK. Each contender's answers are compared
-//! with raytree's ray by ray, so a fast wrong answer shows.
+//! raytree runs as five contenders ([`RAYTREE`]: the binary BVH with STACK,
+//! `bvh4`, `bvh8` and `cwbvh` from the same SAH tree, `bvh8` over an SBVH
+//! build), Embree at its medium and high build qualities. Every contender
+//! traces each set on all threads, the contenders taking turns, several
+//! times; the median time gives Mrays/s, reported beside the ratio to
+//! raytree's BVH with STACK, and a [`FASTEST`] row takes raytree's best per
+//! workload. Each contender's answers are compared with raytree's ray by
+//! ray, so a fast wrong answer shows. Each contender's configuration is
+//! printed under its scene's table.
 
 #[cfg(feature = "embree")]
 pub mod embree;
@@ -19,13 +24,13 @@ pub mod embree;
 pub mod obvhs;
 
 use rayon::prelude::*;
-use raytree::bvh::{BuildOptions, Bvh};
+use raytree::bvh::{BuildOptions, Builder, Bvh};
 use raytree::error::Result;
 use raytree::geometry::Ray;
 use raytree::render::rayset;
 use raytree::scene::Scene;
 use raytree::stats::NoStats;
-use raytree::structures::{Accel, BinaryBvh};
+use raytree::structures::{simd, Accel, BinaryBvh, Bvh4, Bvh8, CwBvh};
 use serde::Serialize;
 use std::time::Instant;
 
@@ -46,14 +51,28 @@ impl<A: Accel + Sync> Contender for A {
     }
 }
 
+/// raytree's own contenders: the binary BVH with STACK (every ratio's
+/// reference), the wide BVHs from the same SAH tree, and `bvh8` over an
+/// SBVH build (spatial splits, the counterpart of Embree's high quality).
+pub const RAYTREE: [&str; 5] = [
+    "raytree bvh stack",
+    "raytree bvh4",
+    "raytree bvh8",
+    "raytree cwbvh",
+    "raytree bvh8 sbvh",
+];
+
+/// The row that takes, per workload, the fastest of [`RAYTREE`].
+pub const FASTEST: &str = "raytree fastest";
+
 /// The contenders this build of raytree can run, by name.
 pub fn available() -> Vec<&'static str> {
-    let mut names = vec!["raytree bvh stack"];
+    let mut names = RAYTREE.to_vec();
     if cfg!(feature = "obvhs") {
         names.extend(["obvhs bvh2 same tree", "obvhs bvh2 ploc", "obvhs cwbvh"]);
     }
     if cfg!(feature = "embree") {
-        names.push("embree");
+        names.extend(["embree medium", "embree high"]);
     }
     names
 }
@@ -143,6 +162,10 @@ pub struct Measure {
 #[derive(Clone, Debug, Serialize)]
 pub struct Row {
     pub contender: String,
+    /// For the [`FASTEST`] row: which raytree contender it took per
+    /// workload.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub picked: Vec<String>,
     /// Time to build its structure from the triangles (raytree: the SAH BVH
     /// and its flat layout).
     pub build_s: f64,
@@ -155,6 +178,8 @@ pub struct SceneResult {
     pub triangles: usize,
     pub threads: usize,
     pub options: Options,
+    /// How each contender was built and traced, one line each.
+    pub configs: Vec<String>,
     pub rows: Vec<Row>,
 }
 
@@ -184,29 +209,57 @@ fn agree(a: f32, b: f32) -> bool {
 pub fn run_scene(scene: &Scene, o: &Options, tick: &(dyn Fn() + Sync)) -> Result<SceneResult> {
     let start = Instant::now();
     let bvh = Bvh::build(&scene.triangles, &o.build);
+    let bvh_s = start.elapsed().as_secs_f64();
     let layout = BinaryBvh::from_bvh(&bvh, scene.triangles.clone())?;
     let raytree_build = start.elapsed().as_secs_f64();
     let sets = RaySets::new(scene, &layout, o);
-
-    // Declared before the contenders that borrow them, so dropped after.
-    #[cfg(feature = "embree")]
-    let device = embree::Device::new();
-    #[cfg(feature = "embree")]
-    let built = embree::Built::new(&device, scene)?;
-    let mut contenders: Vec<(String, f64, Box<dyn Contender + '_>)> =
-        vec![("raytree bvh stack".into(), raytree_build, Box::new(layout))];
+    let timed = |f: &dyn Fn() -> Result<Box<dyn Contender>>| -> Result<(f64, Box<dyn Contender>)> {
+        let t = Instant::now();
+        let c = f()?;
+        Ok((bvh_s + t.elapsed().as_secs_f64(), c))
+    };
+    let tris = || scene.triangles.clone();
+    let (b4_s, b4) = timed(&|| Ok(Box::new(Bvh4::from_bvh(&bvh, tris())?)))?;
+    let (b8_s, b8) = timed(&|| Ok(Box::new(Bvh8::from_bvh(&bvh, tris())?)))?;
+    let (cw_s, cw) = timed(&|| Ok(Box::new(CwBvh::from_bvh(&bvh, tris())?)))?;
+    let t = Instant::now();
+    let sbvh = Bvh::build(
+        &scene.triangles,
+        &BuildOptions::new(Builder::Sbvh).with_max_leaf_size(o.build.max_leaf_size),
+    );
+    let sb8: Box<dyn Contender> = Box::new(Bvh8::from_bvh(&sbvh, tris())?);
+    let sb8_s = t.elapsed().as_secs_f64();
+    drop(sbvh);
+    let mut configs = vec![format!(
+        "raytree: {} builder, leaves of at most {} triangles (bvh8 sbvh: the SBVH builder); bvh4/bvh8/cwbvh collapsed by SAH; wide kernels on the {} SIMD path; build times include the BVH build",
+        o.build.builder.name(),
+        o.build.max_leaf_size,
+        simd::active().describe()
+    )];
+    let mut contenders: Vec<(String, f64, Box<dyn Contender + '_>)> = vec![
+        (RAYTREE[0].into(), raytree_build, Box::new(layout)),
+        (RAYTREE[1].into(), b4_s, b4),
+        (RAYTREE[2].into(), b8_s, b8),
+        (RAYTREE[3].into(), cw_s, cw),
+        (RAYTREE[4].into(), sb8_s, sb8),
+    ];
     #[cfg(feature = "obvhs")]
-    contenders.extend(obvhs::contenders(scene, &bvh));
-    #[cfg(feature = "embree")]
     {
-        let (peer, build_s) = built.commit();
-        contenders.push(("embree".into(), build_s, Box::new(peer)));
+        contenders.extend(obvhs::contenders(scene, &bvh));
+        configs.push("obvhs: its BVH2 over raytree's tree, its PLOC build (medium), its CWBVH; raytree's triangle test".into());
+    }
+    #[cfg(feature = "embree")]
+    for q in [embree::Quality::Medium, embree::Quality::High] {
+        let (peer, build_s) = embree::Peer::build(scene, q)?;
+        configs.push(peer.config.clone());
+        contenders.push((q.contender().into(), build_s, Box::new(peer)));
     }
 
     let mut rows: Vec<Row> = contenders
         .iter()
         .map(|(name, build_s, _)| Row {
             contender: name.clone(),
+            picked: Vec::new(),
             build_s: *build_s,
             measures: Vec::new(),
         })
@@ -245,13 +298,34 @@ pub fn run_scene(scene: &Scene, o: &Options, tick: &(dyn Fn() + Sync)) -> Result
             });
         }
     }
+    rows.insert(RAYTREE.len(), fastest(&rows[..RAYTREE.len()]));
     Ok(SceneResult {
         scene: scene.name.clone(),
         triangles: scene.triangles.len(),
         threads: rayon::current_num_threads(),
         options: o.clone(),
+        configs,
         rows,
     })
+}
+
+/// The [`FASTEST`] row: per workload, the raytree row of least time.
+fn fastest(rows: &[Row]) -> Row {
+    let mut row = Row {
+        contender: FASTEST.into(),
+        picked: Vec::new(),
+        build_s: f64::NAN,
+        measures: Vec::new(),
+    };
+    for w in 0..rows[0].measures.len() {
+        let best = rows
+            .iter()
+            .min_by(|a, b| a.measures[w].seconds.total_cmp(&b.measures[w].seconds))
+            .expect("raytree rows");
+        row.picked.push(best.contender.clone());
+        row.measures.push(best.measures[w].clone());
+    }
+    row
 }
 
 fn median(v: &mut [f64]) -> f64 {
@@ -281,6 +355,21 @@ pub fn markdown(r: &SceneResult) -> String {
     );
     let _ = writeln!(s, "|---|---:|---:|---:|---:|---|");
     for row in &r.rows {
+        let name = if row.picked.is_empty() {
+            row.contender.clone()
+        } else {
+            let picks: Vec<&str> = row
+                .picked
+                .iter()
+                .map(|p| p.trim_start_matches("raytree "))
+                .collect();
+            format!("**{}** ({})", row.contender, picks.join(" / "))
+        };
+        let build = if row.build_s.is_nan() {
+            "-".to_owned()
+        } else {
+            format!("{:.2}", row.build_s)
+        };
         let cells: Vec<String> = row
             .measures
             .iter()
@@ -293,12 +382,51 @@ pub fn markdown(r: &SceneResult) -> String {
             .collect();
         let _ = writeln!(
             s,
-            "| {} | {:.2} | {} | {} |",
-            row.contender,
-            row.build_s,
+            "| {name} | {build} | {} | {} |",
             cells.join(" | "),
             agreeing.join(" / ")
         );
     }
+    // The target: raytree's fastest against Embree's best build.
+    let row = |n: &str| r.rows.iter().find(|x| x.contender == n);
+    if let (Some(f), Some(e)) = (row(FASTEST), row("embree high")) {
+        let ratios: Vec<String> = f
+            .measures
+            .iter()
+            .zip(&e.measures)
+            .map(|(a, b)| format!("{} {:.2}×", a.workload, b.seconds / a.seconds))
+            .collect();
+        let _ = writeln!(
+            s,
+            "\nraytree fastest vs embree high (above 1: raytree faster): {}",
+            ratios.join(", ")
+        );
+    }
+    let _ = writeln!(s);
+    for c in &r.configs {
+        let _ = writeln!(s, "- {c}");
+    }
     s
+}
+
+/// Geometric means over scenes of each contender's speed relative to
+/// another's (`of` over `to`, per workload; above 1: `of` is faster), for
+/// the contenders present in every scene.
+pub fn geomean_ratios(results: &[SceneResult], of: &str, to: &str) -> Option<Vec<(String, f64)>> {
+    let mut logs = vec![0.0; WORKLOADS.len()];
+    for r in results {
+        let a = r.rows.iter().find(|x| x.contender == of)?;
+        let b = r.rows.iter().find(|x| x.contender == to)?;
+        for (w, (ma, mb)) in a.measures.iter().zip(&b.measures).enumerate() {
+            logs[w] += (mb.seconds / ma.seconds).ln();
+        }
+    }
+    let n = results.len().max(1) as f64;
+    Some(
+        WORKLOADS
+            .iter()
+            .zip(logs)
+            .map(|(w, l)| (w.to_string(), (l / n).exp()))
+            .collect(),
+    )
 }
