@@ -68,7 +68,8 @@ fn every_contender_answers_as_raytree_does() {
     assert_eq!(primary.rays, 64 * 48);
     for row in &r.rows {
         assert_eq!(row.measures.len(), peers::WORKLOADS.len());
-        assert!(row.build_s.is_finite() && row.build_s >= 0.0);
+        // The fastest row takes its workloads from several builds.
+        assert!(row.contender == peers::FASTEST || (row.build_s.is_finite() && row.build_s >= 0.0));
         for m in &row.measures {
             assert!(m.rays > 0, "{} {}", row.contender, m.workload);
             assert!(m.seconds > 0.0 && m.mrays_per_s.is_finite() && m.speed_vs_stack.is_finite());

@@ -31,7 +31,7 @@ use super::shared::simd::SimdPath;
 use super::shared::tri_block::{self, TriBlock};
 use super::shared::MAX_STACK_DEPTH;
 use super::wide::collapse;
-use super::wide::traverse::{self, gather, Entered, Isa, NodeRay, WideTree};
+use super::wide::traverse::{self, Entered, Isa, NodeRay, Portable, WideTree};
 use super::Accel;
 use crate::bvh::{Bvh, NodeKind};
 use crate::error::{Error, Result};
@@ -89,8 +89,13 @@ impl CwNode {
     /// max x, max y, max z`) of eight lanes: `p + q·scale` in f32, exactly
     /// as the traversal computes them. Empty slots decode to whatever their
     /// bytes say; [`CwNode::valid`] masks them.
-    #[inline(always)]
     pub fn planes(&self) -> [[f32; WIDTH]; 6] {
+        self.planes_on::<Portable>()
+    }
+
+    /// [`CwNode::planes`] on a SIMD path.
+    #[inline(always)]
+    fn planes_on<I: Isa>(&self) -> [[f32; WIDTH]; 6] {
         let p = self.origin();
         let s = self.scale();
         std::array::from_fn(|r| {
@@ -99,18 +104,19 @@ impl CwNode {
             } else {
                 (r - 3, &self.q_hi[r - 3])
             };
-            q.map(|q| p[a] + q as f32 * s[a])
+            I::dequantize8(p[a], s[a], q)
         })
     }
 
     /// Bit `k`: slot `k` holds a child.
     #[inline(always)]
     pub fn valid(&self) -> u32 {
-        let mut m = 0;
-        for k in 0..WIDTH {
-            m |= ((self.meta[k] != 0) as u32) << k;
-        }
-        m
+        // Bit 7 of each byte: whether the byte is non-zero; then the eight
+        // bits gathered into one byte by a multiply.
+        const LOW7: u64 = 0x7f7f_7f7f_7f7f_7f7f;
+        let x = u64::from_le_bytes(self.meta);
+        let nonzero = (((x & LOW7) + LOW7) | x) & !LOW7;
+        ((nonzero >> 7).wrapping_mul(0x0102_0408_1020_4080) >> 56) as u32
     }
 
     /// The reference of slot `k`: a node index, or [`LEAF`] and the index of
@@ -441,9 +447,21 @@ impl WideTree<WIDTH> for CwBvh {
     fn enter<I: Isa>(&self, node: u32, r: &NodeRay, tmax: f32) -> (Entered<WIDTH>, u32) {
         let n = &self.nodes[node as usize];
         let valid = n.valid();
-        let (d, mask) = I::test::<WIDTH>(r, &n.planes(), tmax);
-        let refs = std::array::from_fn(|k| n.reference(k));
-        (gather(&d, &refs, mask & valid), 6 * valid.count_ones())
+        let (d, mask) = I::test::<WIDTH>(r, &n.planes_on::<I>(), tmax);
+        let mut e = Entered {
+            dist: [0.0; WIDTH],
+            refs: [0; WIDTH],
+            count: 0,
+        };
+        let mut mask = mask & valid;
+        while mask != 0 {
+            let k = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            e.dist[e.count] = d[k];
+            e.refs[e.count] = n.reference(k);
+            e.count += 1;
+        }
+        (e, 6 * valid.count_ones())
     }
     fn canonical_id(&self, r: u32) -> u32 {
         CwBvh::canonical_id(self, r)
@@ -478,6 +496,22 @@ mod tests {
     #[test]
     fn nodes_are_80_bytes() {
         assert_eq!(std::mem::size_of::<CwNode>(), 80);
+    }
+
+    #[test]
+    fn the_valid_mask_has_a_bit_per_non_empty_slot() {
+        let mut n = CwNode::zeroed();
+        assert_eq!(n.valid(), 0);
+        for bits in 0..=255u32 {
+            for k in 0..WIDTH {
+                n.meta[k] = if bits & (1 << k) != 0 {
+                    [1, 0x20, 0x7f, 0x80, 0xff, 0x3f][(k + bits as usize) % 6]
+                } else {
+                    0
+                };
+            }
+            assert_eq!(n.valid(), bits);
+        }
     }
 
     #[test]

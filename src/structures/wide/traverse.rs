@@ -19,6 +19,8 @@ use crate::stats::Stats;
 use crate::structures::shared::leaf::enter;
 use crate::structures::shared::simd::{self, SimdPath};
 use crate::structures::shared::tri_block::{intersect_blocks, TriBlock};
+use crate::structures::shared::MAX_STACK_DEPTH;
+use arrayvec::ArrayVec;
 
 /// A ray's constants for the box tests of one trace: origin, reciprocal
 /// direction, and per axis the plane row nearer (`near`) and farther
@@ -46,6 +48,11 @@ pub trait Isa {
     /// `[ray.tmin, tmax]`: the slab test of [`crate::geometry::BoxRay::test`]
     /// on every lane, bit for bit.
     fn test<const W: usize>(r: &NodeRay, planes: &[[f32; W]; 6], tmax: f32) -> ([f32; W], u32);
+
+    /// `p + q·s` for eight quantized planes `q` and a power-of-two scale
+    /// `s` (`q·s` is exact, so the one rounding is the addition's, on every
+    /// path): a `cwbvh` node's plane row.
+    fn dequantize8(p: f32, s: f32, q: &[u8; 8]) -> [f32; 8];
 }
 
 /// A wide tree as the kernel reads it.
@@ -119,6 +126,11 @@ impl Isa for Portable {
             mask |= ((n <= f) as u32) << k;
         }
         (tn, mask)
+    }
+
+    #[inline(always)]
+    fn dequantize8(p: f32, s: f32, q: &[u8; 8]) -> [f32; 8] {
+        q.map(|q| p + q as f32 * s)
     }
 }
 
@@ -251,12 +263,47 @@ mod x86 {
         (d, mask)
     }
 
+    #[target_feature(enable = "sse4.1")]
+    #[inline]
+    fn dequantize8_sse(p: f32, s: f32, q: &[u8; 8]) -> [f32; 8] {
+        let (pv, sv) = (_mm_set1_ps(p), _mm_set1_ps(s));
+        let mut out = [0.0; 8];
+        for half in 0..2 {
+            // SAFETY: four of the eight bytes, from `4·half`.
+            let b = unsafe {
+                _mm_cvtsi32_si128((q.as_ptr().add(4 * half) as *const i32).read_unaligned())
+            };
+            let v = _mm_add_ps(pv, _mm_mul_ps(_mm_cvtepi32_ps(_mm_cvtepu8_epi32(b)), sv));
+            // SAFETY: four of the eight floats, from `4·half`.
+            unsafe { _mm_storeu_ps(out.as_mut_ptr().add(4 * half), v) };
+        }
+        out
+    }
+
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    fn dequantize8_avx2(p: f32, s: f32, q: &[u8; 8]) -> [f32; 8] {
+        // SAFETY: `q` holds the eight bytes read.
+        let b = unsafe { _mm_loadl_epi64(q.as_ptr() as *const __m128i) };
+        let v = _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(b));
+        let v = _mm256_add_ps(_mm256_set1_ps(p), _mm256_mul_ps(v, _mm256_set1_ps(s)));
+        let mut out = [0.0; 8];
+        // SAFETY: `out` holds eight floats.
+        unsafe { _mm256_storeu_ps(out.as_mut_ptr(), v) };
+        out
+    }
+
     impl Isa for Sse41 {
         #[inline(always)]
         fn test<const W: usize>(r: &NodeRay, planes: &[[f32; W]; 6], tmax: f32) -> ([f32; W], u32) {
             // SAFETY: this path runs only inside `trace_sse41`, which runs
             // only where the processor has SSE4.1 (`simd::active`).
             unsafe { test_sse(r, planes, tmax) }
+        }
+        #[inline(always)]
+        fn dequantize8(p: f32, s: f32, q: &[u8; 8]) -> [f32; 8] {
+            // SAFETY: as above.
+            unsafe { dequantize8_sse(p, s, q) }
         }
     }
 
@@ -267,6 +314,11 @@ mod x86 {
             // only where the processor has AVX2 and FMA.
             unsafe { test_avx2(r, planes, tmax) }
         }
+        #[inline(always)]
+        fn dequantize8(p: f32, s: f32, q: &[u8; 8]) -> [f32; 8] {
+            // SAFETY: as above.
+            unsafe { dequantize8_avx2(p, s, q) }
+        }
     }
 
     impl Isa for Avx512 {
@@ -275,6 +327,11 @@ mod x86 {
             // SAFETY: this path runs only inside `trace_avx512`, which runs
             // only where the processor has AVX-512 F, VL, DQ and BW.
             unsafe { test_avx512(r, planes, tmax) }
+        }
+        #[inline(always)]
+        fn dequantize8(p: f32, s: f32, q: &[u8; 8]) -> [f32; 8] {
+            // SAFETY: as above (AVX-512 F implies AVX2).
+            unsafe { dequantize8_avx2(p, s, q) }
         }
     }
 }
@@ -315,7 +372,7 @@ pub fn trace_on<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool>(
             // SAFETY: as above, SSE4.1 is present.
             unsafe { trace_sse41::<W, T, S, ANY>(w, ray, stats) }
         }
-        _ => trace_sized::<W, T, S, ANY, Portable>(w, ray, stats),
+        _ => trace_kernel::<W, T, S, ANY, Portable>(w, ray, stats),
     }
 }
 
@@ -326,7 +383,7 @@ fn trace_avx512<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool>(
     ray: &Ray,
     stats: &mut S,
 ) -> Option<Hit> {
-    trace_sized::<W, T, S, ANY, x86::Avx512>(w, ray, stats)
+    trace_kernel::<W, T, S, ANY, x86::Avx512>(w, ray, stats)
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -336,7 +393,7 @@ fn trace_avx2<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool>(
     ray: &Ray,
     stats: &mut S,
 ) -> Option<Hit> {
-    trace_sized::<W, T, S, ANY, x86::Avx2>(w, ray, stats)
+    trace_kernel::<W, T, S, ANY, x86::Avx2>(w, ray, stats)
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -346,30 +403,21 @@ fn trace_sse41<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool>(
     ray: &Ray,
     stats: &mut S,
 ) -> Option<Hit> {
-    trace_sized::<W, T, S, ANY, x86::Sse41>(w, ray, stats)
+    trace_kernel::<W, T, S, ANY, x86::Sse41>(w, ray, stats)
 }
 
-/// Picks the stack for the tree's depth: it holds at most `W − 1` pending
-/// children per level.
+/// Entries of the traversal stack: at most `W − 1` pending children per
+/// level below the root, and trees are less than [`MAX_STACK_DEPTH`]
+/// levels deep (the layouts refuse deeper ones).
+const STACK: usize = MAX_STACK_DEPTH * 7 + 1;
+
 #[inline(always)]
-fn trace_sized<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool, I: Isa>(
+fn trace_kernel<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool, I: Isa>(
     w: &T,
     ray: &Ray,
     stats: &mut S,
 ) -> Option<Hit> {
-    match w.depth() as usize * (W - 1) + 1 {
-        0..=64 => trace_n::<W, T, S, ANY, I, 64>(w, ray, stats),
-        65..=256 => trace_n::<W, T, S, ANY, I, 256>(w, ray, stats),
-        _ => trace_n::<W, T, S, ANY, I, 1024>(w, ray, stats),
-    }
-}
-
-#[inline(always)]
-fn trace_n<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool, I: Isa, const N: usize>(
-    w: &T,
-    ray: &Ray,
-    stats: &mut S,
-) -> Option<Hit> {
+    debug_assert!((w.depth() as usize) * (W - 1) < STACK);
     if w.is_empty() {
         return None;
     }
@@ -383,8 +431,8 @@ fn trace_n<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool, I: Isa, co
     };
     let mut tmax = ray.tmax;
     let mut best: Option<Hit> = None;
-    let mut stack = [(0u32, 0f32); N];
-    let mut sp = 0;
+    // Not cleared per ray (an `ArrayVec` leaves its slots uninitialized).
+    let mut stack = ArrayVec::<(u32, f32), STACK>::new();
     let mut node = w.root();
     'visit: loop {
         tally.nodes += 1;
@@ -426,8 +474,7 @@ fn trace_n<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool, I: Isa, co
                     e.refs[j] = c;
                 }
                 for i in (1..m).rev() {
-                    stack[sp] = (e.refs[i], e.dist[i]);
-                    sp += 1;
+                    stack.push((e.refs[i], e.dist[i]));
                 }
                 node = e.refs[0];
                 continue;
@@ -435,9 +482,7 @@ fn trace_n<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool, I: Isa, co
         }
         // Pop the nearest pending child still in reach: one entered beyond
         // the closest hit would fail its box test now.
-        while sp > 0 {
-            sp -= 1;
-            let (r, t) = stack[sp];
+        while let Some((r, t)) = stack.pop() {
             if t <= tmax {
                 node = r;
                 continue 'visit;
