@@ -75,11 +75,12 @@ fn every_contender_answers_as_raytree_does() {
             assert!(m.seconds > 0.0 && m.mrays_per_s.is_finite() && m.speed_vs_stack.is_finite());
             // Contenders sharing raytree's triangle test agree exactly;
             // Embree's own test may differ on a rare grazing ray.
-            let least = if row.contender.starts_with("embree") {
-                0.999
-            } else {
-                1.0
-            };
+            let least =
+                if row.contender.starts_with("embree") || row.contender.starts_with("tinybvh") {
+                    0.999
+                } else {
+                    1.0
+                };
             assert!(
                 m.agreeing >= least,
                 "{} {}: {} agreeing",

@@ -203,8 +203,8 @@ fn run_peers(a: PeersArgs) -> Result<()> {
     say!("{}", machine.describe());
     let contenders = peers::available();
     say!("contenders: {}", contenders.join(", "));
-    if !cfg!(feature = "embree") {
-        say!("(Embree is left out: build with --features embree, after apt install libembree-dev)");
+    for m in peers::missing() {
+        say!("({m})");
     }
     let runs = scenes.len() * peers::WORKLOADS.len() * opts.repeats * contenders.len();
     let bar = common::progress(runs as u64, "bench peers", a.quiet);

@@ -455,10 +455,11 @@ impl WideTree<WIDTH> for CwBvh {
         };
         let mut mask = mask & valid;
         while mask != 0 {
-            let k = mask.trailing_zeros() as usize;
+            // Masked: eight bits at most, so no bounds checks.
+            let k = mask.trailing_zeros() as usize & (WIDTH - 1);
             mask &= mask - 1;
-            e.dist[e.count] = d[k];
-            e.refs[e.count] = n.reference(k);
+            e.dist[e.count & (WIDTH - 1)] = d[k];
+            e.refs[e.count & (WIDTH - 1)] = n.reference(k);
             e.count += 1;
         }
         (e, 6 * valid.count_ones())

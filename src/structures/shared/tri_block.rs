@@ -149,12 +149,65 @@ pub fn intersect_blocks<const ANY: bool, S: Stats>(
     tally: &mut Tally,
     stats: &mut S,
 ) -> bool {
-    let [kx, ky, kz] = ray.k.map(|k| k % 3);
-    let s = ray.shear;
-    let o = ray.origin().to_array();
-    let (sx, sy, sz) = (Vec4::splat(s.x), Vec4::splat(s.y), Vec4::splat(s.z));
-    let (ox, oy, oz) = (Vec4::splat(o[kx]), Vec4::splat(o[ky]), Vec4::splat(o[kz]));
-    let tmin = Vec4::splat(ray.tmin);
+    intersect_blocks_with::<ANY, S>(
+        &BlockRay::new(ray),
+        blocks,
+        first,
+        triangles,
+        ray,
+        tmax,
+        best,
+        tally,
+        stats,
+    )
+}
+
+/// A ray's constants for [`intersect_blocks_with`], computed once per ray
+/// rather than once per leaf: its axes in the watertight test's order, its
+/// shear and its origin on those axes, and `tmin`, in every lane.
+#[derive(Clone, Copy, Debug)]
+pub struct BlockRay {
+    k: [usize; 3],
+    s: [Vec4; 3],
+    o: [Vec4; 3],
+    tmin: Vec4,
+}
+
+impl BlockRay {
+    /// The constants of `ray`.
+    #[inline(always)]
+    pub fn new(ray: &Ray) -> Self {
+        let k = ray.k.map(|k| k % 3);
+        let s = ray.shear;
+        let o = ray.origin().to_array();
+        BlockRay {
+            k,
+            s: [Vec4::splat(s.x), Vec4::splat(s.y), Vec4::splat(s.z)],
+            o: k.map(|a| Vec4::splat(o[a])),
+            tmin: Vec4::splat(ray.tmin),
+        }
+    }
+}
+
+/// [`intersect_blocks`] with the ray's constants computed beforehand
+/// (`br` is [`BlockRay::new`] of `ray`).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub fn intersect_blocks_with<const ANY: bool, S: Stats>(
+    br: &BlockRay,
+    blocks: &[TriBlock],
+    first: u32,
+    triangles: &[Triangle],
+    ray: &Ray,
+    tmax: &mut f32,
+    best: &mut Option<Hit>,
+    tally: &mut Tally,
+    stats: &mut S,
+) -> bool {
+    let [kx, ky, kz] = br.k;
+    let [sx, sy, sz] = br.s;
+    let [ox, oy, oz] = br.o;
+    let tmin = br.tmin;
     let mut i = first as usize;
     loop {
         let blk = &blocks[i];

@@ -18,7 +18,7 @@ use crate::geometry::{Hit, Ray, Triangle};
 use crate::stats::Stats;
 use crate::structures::shared::leaf::enter;
 use crate::structures::shared::simd::{self, SimdPath};
-use crate::structures::shared::tri_block::{intersect_blocks, TriBlock};
+use crate::structures::shared::tri_block::{intersect_blocks_with, BlockRay, TriBlock};
 use crate::structures::shared::MAX_STACK_DEPTH;
 use arrayvec::ArrayVec;
 
@@ -85,11 +85,14 @@ pub fn gather<const W: usize>(d: &[f32; W], refs: &[u32; W], mut mask: u32) -> E
         refs: [0; W],
         count: 0,
     };
+    // `mask` has at most W bits below bit W (W a power of two), so the
+    // masked indices are the indices, with no bounds checks.
+    debug_assert!(W.is_power_of_two() && mask < 1 << W);
     while mask != 0 {
-        let k = mask.trailing_zeros() as usize;
+        let k = mask.trailing_zeros() as usize & (W - 1);
         mask &= mask - 1;
-        e.dist[e.count] = d[k];
-        e.refs[e.count] = refs[k];
+        e.dist[e.count & (W - 1)] = d[k];
+        e.refs[e.count & (W - 1)] = refs[k];
         e.count += 1;
     }
     e
@@ -429,6 +432,7 @@ fn trace_kernel<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool, I: Is
         far: std::array::from_fn(|a| a + 3 * !br.neg[a] as usize),
         tmin: ray.tmin,
     };
+    let block_ray = BlockRay::new(ray);
     let mut tmax = ray.tmax;
     let mut best: Option<Hit> = None;
     // Not cleared per ray (an `ArrayVec` leaves its slots uninitialized).
@@ -440,7 +444,8 @@ fn trace_kernel<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool, I: Is
             stats.visit(w.canonical_id(node));
         }
         if node & LEAF != 0 {
-            if intersect_blocks::<ANY, S>(
+            if intersect_blocks_with::<ANY, S>(
+                &block_ray,
                 w.blocks(),
                 node & !LEAF,
                 w.triangles(),
@@ -460,7 +465,14 @@ fn trace_kernel<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool, I: Is
                 node = e.refs[0];
                 continue;
             }
-            if m > 1 {
+            if m == 2 {
+                // Nearest first; equal distances keep lane order.
+                let near = (e.dist[1] < e.dist[0]) as usize;
+                stack.push((e.refs[1 - near], e.dist[1 - near]));
+                node = e.refs[near];
+                continue;
+            }
+            if m > 2 {
                 // Nearest first; equal distances keep lane order.
                 for i in 1..m {
                     let (t, c) = (e.dist[i], e.refs[i]);

@@ -22,6 +22,8 @@
 pub mod embree;
 #[cfg(feature = "obvhs")]
 pub mod obvhs;
+#[cfg(all(feature = "tinybvh", target_feature = "avx2"))]
+pub mod tinybvh;
 
 use rayon::prelude::*;
 use raytree::bvh::{BuildOptions, Builder, Bvh};
@@ -51,6 +53,9 @@ impl<A: Accel + Sync> Contender for A {
     }
 }
 
+/// A built contender: its name, its build time in seconds, and itself.
+pub type Entry<'a> = (String, f64, Box<dyn Contender + 'a>);
+
 /// raytree's own contenders: the binary BVH with STACK (every ratio's
 /// reference), the wide BVHs from the same SAH tree, and `bvh8` over an
 /// SBVH build (spatial splits, the counterpart of Embree's high quality).
@@ -71,10 +76,28 @@ pub fn available() -> Vec<&'static str> {
     if cfg!(feature = "obvhs") {
         names.extend(["obvhs bvh2 same tree", "obvhs bvh2 ploc", "obvhs cwbvh"]);
     }
+    #[cfg(all(feature = "tinybvh", target_feature = "avx2"))]
+    names.extend(tinybvh::NAMES);
     if cfg!(feature = "embree") {
         names.extend(["embree medium", "embree high"]);
     }
     names
+}
+
+/// Why a contender this build was asked for is missing, if one is.
+pub fn missing() -> Vec<&'static str> {
+    let mut out = Vec::new();
+    if !cfg!(feature = "embree") {
+        out.push(
+            "Embree is left out: build with --features embree, after apt install libembree-dev",
+        );
+    }
+    if !cfg!(feature = "tinybvh") {
+        out.push("tinybvh is left out: build with --features tinybvh and RUSTFLAGS=\"-C target-feature=+avx2,+fma\"");
+    } else if !cfg!(target_feature = "avx2") {
+        out.push("tinybvh is left out: tinybvh-rs exposes BVH8_CPU's traversal only to a build with RUSTFLAGS=\"-C target-feature=+avx2,+fma\"");
+    }
+    out
 }
 
 /// The three workloads.
@@ -247,6 +270,12 @@ pub fn run_scene(scene: &Scene, o: &Options, tick: &(dyn Fn() + Sync)) -> Result
     {
         contenders.extend(obvhs::contenders(scene, &bvh));
         configs.push("obvhs: its BVH2 over raytree's tree, its PLOC build (medium), its CWBVH; raytree's triangle test".into());
+    }
+    #[cfg(all(feature = "tinybvh", target_feature = "avx2"))]
+    {
+        let (peers, config) = tinybvh::contenders(scene)?;
+        contenders.extend(peers);
+        configs.push(config);
     }
     #[cfg(feature = "embree")]
     for q in [embree::Quality::Medium, embree::Quality::High] {
