@@ -438,7 +438,8 @@ fn parse_builder(name: &str) -> PyResult<Builder> {
 ///     scene: a `Scene`.
 ///     structure: ``"bvh"`` (52-byte binary nodes), ``"dst"``,
 ///         ``"dst-similar"`` (dual-split trees), ``"bih"``, ``"htree"``,
-///         ``"cbvh"``, ``"bvh4"``, ``"bvh8"`` (4- and 8-wide BVHs) or
+///         ``"cbvh"``, ``"bvh4"``, ``"bvh8"`` (4- and 8-wide BVHs),
+///         ``"cwbvh"`` (compressed 8-wide BVH, 80-byte nodes) or
 ///         ``"brute"`` (every triangle: the oracle); or
 ///         ``"bvh/<traversal>"``. See `raytree.STRUCTURES`.
 ///     traversal: for ``"bvh"`` only: ``"stack"`` (the default),

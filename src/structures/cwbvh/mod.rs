@@ -424,10 +424,6 @@ impl WideTree<WIDTH> for CwBvh {
         self.root
     }
     #[inline(always)]
-    fn root_bounds(&self) -> [f32; 6] {
-        self.root_bounds.to_array()
-    }
-    #[inline(always)]
     fn is_empty(&self) -> bool {
         self.blocks.is_empty()
     }

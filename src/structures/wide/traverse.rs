@@ -3,6 +3,12 @@
 //! stack of references with entry distances, and popped entries beyond the
 //! closest hit skipped.
 //!
+//! There is no separate test of the scene box (the root's children are
+//! tested at its first visit), and an any-hit trace pushes entered children
+//! in lane order without sorting them (Embree's occlusion traversal does
+//! the same): its interval never shrinks, so their order only decides
+//! which hit is found first.
+//!
 //! The kernel is written once over two traits: [`WideTree`] (how a layout
 //! stores a node's child boxes and references) and [`Isa`] (the vector
 //! instruction set that tests them). [`trace`] runs it on the path
@@ -15,8 +21,7 @@
 use super::{WideNode, LEAF};
 use crate::geometry::aabb::ROBUST_WIDENING;
 use crate::geometry::{Hit, Ray, Triangle};
-use crate::stats::Stats;
-use crate::structures::shared::leaf::enter;
+use crate::stats::{Stats, Tally};
 use crate::structures::shared::simd::{self, SimdPath};
 use crate::structures::shared::tri_block::{intersect_blocks_with, BlockRay, TriBlock};
 use crate::structures::shared::MAX_STACK_DEPTH;
@@ -59,8 +64,6 @@ pub trait Isa {
 pub trait WideTree<const W: usize> {
     /// The root's reference (a node index, or `LEAF` | a block index).
     fn root(&self) -> u32;
-    /// The scene box, tested first.
-    fn root_bounds(&self) -> [f32; 6];
     /// Whether the tree holds no triangle.
     fn is_empty(&self) -> bool;
     /// Wide levels below the root (sizes the stack).
@@ -424,12 +427,16 @@ fn trace_kernel<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool, I: Is
     if w.is_empty() {
         return None;
     }
-    let (br, mut tally) = enter(ray, &w.root_bounds(), stats)?;
+    // No separate test of the scene box: the root's children's boxes are
+    // tested at its first visit (a one-leaf tree tests its triangles).
+    let mut tally = Tally::default();
+    let inv = ray.inv_direction().to_array();
+    let neg = inv.map(f32::is_sign_negative);
     let r = NodeRay {
-        org: br.org,
-        inv: br.inv,
-        near: std::array::from_fn(|a| a + 3 * br.neg[a] as usize),
-        far: std::array::from_fn(|a| a + 3 * !br.neg[a] as usize),
+        org: ray.origin().to_array(),
+        inv,
+        near: std::array::from_fn(|a| a + 3 * neg[a] as usize),
+        far: std::array::from_fn(|a| a + 3 * !neg[a] as usize),
         tmin: ray.tmin,
     };
     let block_ray = BlockRay::new(ray);
@@ -462,6 +469,15 @@ fn trace_kernel<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool, I: Is
             tally.planes += planes;
             let m = e.count;
             if m == 1 {
+                node = e.refs[0];
+                continue;
+            }
+            if ANY && !S::HITS && m > 1 {
+                // Any hit: the order does not matter and the interval never
+                // shrinks, so no sort (lane order, the first lane next).
+                for i in (1..m).rev() {
+                    stack.push((e.refs[i], e.dist[i]));
+                }
                 node = e.refs[0];
                 continue;
             }
@@ -510,10 +526,6 @@ impl<const W: usize> WideTree<W> for super::WideBvh<W> {
     #[inline(always)]
     fn root(&self) -> u32 {
         self.root
-    }
-    #[inline(always)]
-    fn root_bounds(&self) -> [f32; 6] {
-        self.root_bounds.to_array()
     }
     #[inline(always)]
     fn is_empty(&self) -> bool {
