@@ -428,7 +428,7 @@ fn bench_dst_reports_every_structure() {
     let csv = std::fs::read_to_string(rep.join("dst.csv")).unwrap();
     let lines: Vec<&str> = csv.lines().collect();
     assert_eq!(lines[0], raytree_cli::bench::report::CSV_HEADER);
-    assert_eq!(lines.len(), 1 + 2 * 6);
+    assert_eq!(lines.len(), 1 + 2 * 9);
     for l in &lines[1..] {
         let f: Vec<&str> = l.split(',').collect();
         assert_eq!(f.len(), 20, "{l}");
@@ -449,7 +449,17 @@ fn bench_dst_reports_every_structure() {
     );
     // A frame and 4 heat maps (planes and triangles, bvh and dst) per scene.
     assert_eq!(html.matches("src=\"data:image/png;base64,").count(), 2 * 5);
-    for s in ["bvh", "dst", "dst-similar", "bih", "htree", "cbvh"] {
+    for s in [
+        "bvh",
+        "dst",
+        "dst-similar",
+        "bih",
+        "htree",
+        "cbvh",
+        "bvh4",
+        "bvh8",
+        "cwbvh",
+    ] {
         assert!(html.contains(&format!("<td>{s}</td>")), "{s} missing");
     }
     assert!(json["machine"]["logical_cores"].as_u64().unwrap() >= 1);
@@ -462,7 +472,20 @@ fn bench_dst_reports_every_structure() {
             .iter()
             .map(|r| r["structure"].as_str().unwrap())
             .collect();
-        assert_eq!(names, ["bvh", "dst", "dst-similar", "bih", "htree", "cbvh"]);
+        assert_eq!(
+            names,
+            [
+                "bvh",
+                "dst",
+                "dst-similar",
+                "bih",
+                "htree",
+                "cbvh",
+                "bvh4",
+                "bvh8",
+                "cwbvh"
+            ]
+        );
         for row in rows {
             let name = row["structure"].as_str().unwrap();
             assert!(
@@ -488,10 +511,20 @@ fn bench_dst_reports_every_structure() {
                 row["node_bytes"].as_u64().unwrap() + row["index_bytes"].as_u64().unwrap()
             );
         }
-        // Storage below the BVH's for every compressed structure, and the
-        // Compact BVH at exactly the BVH's per-ray nodes.
+        // Storage below the BVH's for every compressed structure of the
+        // dual-split paper, and the Compact BVH at exactly the BVH's
+        // per-ray nodes; the wide BVHs (their triangles copied into
+        // blocks) are not compressed, but cwbvh's nodes are bvh8's at 80
+        // bytes instead of 256.
         let bvh = &rows[0];
-        for row in &rows[1..] {
+        let by_name = |n: &str| rows.iter().find(|r| r["structure"] == n).unwrap();
+        let (b8, cw) = (by_name("bvh8"), by_name("cwbvh"));
+        assert_eq!(
+            cw["node_bytes"].as_u64().unwrap() * 256,
+            b8["node_bytes"].as_u64().unwrap() * 80
+        );
+        assert_eq!(cw["index_bytes"], b8["index_bytes"]);
+        for row in &rows[1..6] {
             assert!(row["storage_ratio"].as_f64().unwrap() < 1.0);
             assert!(
                 row["node_storage_ratio"].as_f64().unwrap()
