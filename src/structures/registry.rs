@@ -94,7 +94,7 @@ impl Named for StructureKind {
         (
             StructureKind::Cwbvh,
             "cwbvh",
-            "compressed 8-wide BVH (Ylitie et al. 2017): child boxes in 8-bit planes, 80-byte nodes",
+            "compressed 8-wide BVH (Ylitie et al. 2017): child boxes in 8-bit planes, 80-byte nodes, leaves of at most 12 triangles",
         ),
         (
             StructureKind::Brute,

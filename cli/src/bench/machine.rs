@@ -22,6 +22,8 @@ pub struct Machine {
     /// The SIMD path the wide kernels (`bvh4`, `bvh8`, `cwbvh`) ran on,
     /// chosen at run time ([`raytree::structures::simd`]).
     pub simd_path: &'static str,
+    /// Whether that path was chosen at run time or forced.
+    pub simd_chosen: &'static str,
 }
 
 /// x86-64 extensions past its SSE2 baseline that change the code the
@@ -49,6 +51,7 @@ impl Machine {
             release: !cfg!(debug_assertions),
             simd: EXTENSIONS.iter().filter(|e| e.1).map(|e| e.0).collect(),
             simd_path: raytree::structures::simd::active().describe(),
+            simd_chosen: raytree::structures::simd::how_chosen(),
         }
     }
 
@@ -66,11 +69,12 @@ impl Machine {
         };
         let threads: Vec<String> = self.threads.iter().map(|t| t.to_string()).collect();
         format!(
-            "machine: {}, {} logical cores; {} threads; {build}; {simd}; wide kernels on the {} SIMD path (chosen at run time)",
+            "machine: {}, {} logical cores; {} threads; {build}; {simd}; wide kernels on the {} SIMD path ({})",
             self.cpu,
             self.logical_cores,
             threads.join(" and "),
-            self.simd_path
+            self.simd_path,
+            self.simd_chosen
         )
     }
 }

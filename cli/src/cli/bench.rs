@@ -22,9 +22,11 @@ pub enum BenchCommand {
     /// time and per-ray nodes, plane tests and triangle tests of every
     /// structure converted from one BVH, with node-type distributions.
     Dst(DstArgs),
-    /// raytree beside Embree 3 (feature `embree`) and obvhs (feature
-    /// `obvhs`) on the same primary, AO and path rays: Mrays/s and ratios
-    /// to raytree's BVH with STACK.
+    /// raytree (binary BVH, bvh4, bvh8, cwbvh, bvh8 over SBVH, and its
+    /// fastest per ray kind) beside Embree 3 at medium and high quality
+    /// (feature `embree`), tinybvh's BVH8_CPU (feature `tinybvh`, in an
+    /// AVX2 build) and obvhs (feature `obvhs`) on the same primary, AO and
+    /// path rays: Mrays/s and ratios to raytree's BVH with STACK.
     Peers(PeersArgs),
     /// The GPU back end (feature `gpu`): the stackless paper's Table 1 on
     /// AO rays and the dual-split paper's frame-time ratio on path-tracing
@@ -218,7 +220,7 @@ fn run_peers(a: PeersArgs) -> Result<()> {
         results.push(r);
     }
     bar.finish_and_clear();
-    say!("Mrays/s from the median of {} runs on all threads; (×) is the speed over raytree's BVH with STACK, same run. primary and path: closest hit; ao: any hit.", opts.repeats);
+    say!("Mrays/s from the median of {} runs on {} threads; (×) is the speed over raytree's BVH with STACK, same run. primary and path: closest hit; ao: any hit.", opts.repeats, pool.current_num_threads());
     for peer in ["embree high", "embree medium", "obvhs cwbvh"] {
         if let Some(g) = peers::geomean_ratios(&results, peers::FASTEST, peer) {
             let cells: Vec<String> = g.iter().map(|(w, r)| format!("{w} {r:.2}×")).collect();

@@ -35,6 +35,8 @@ struct InfoReport {
 #[derive(Serialize)]
 pub struct SimdReport {
     pub active: &'static str,
+    /// "chosen at run time" or "forced (RAYTREE_SIMD or set_active)".
+    pub chosen: &'static str,
     pub supported: Vec<&'static str>,
 }
 
@@ -42,6 +44,7 @@ impl SimdReport {
     pub fn detect() -> Self {
         SimdReport {
             active: simd::active().name(),
+            chosen: simd::how_chosen(),
             supported: simd::supported().iter().map(|p| p.name()).collect(),
         }
     }
@@ -49,8 +52,9 @@ impl SimdReport {
     /// One line: the path that runs and the ones this processor offers.
     pub fn describe(&self) -> String {
         format!(
-            "{} (this processor: {}; RAYTREE_SIMD forces one)",
+            "{}, {} (this processor: {}; RAYTREE_SIMD forces one)",
             simd::active().describe(),
+            self.chosen,
             self.supported.join(", ")
         )
     }

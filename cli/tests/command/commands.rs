@@ -449,7 +449,7 @@ fn bench_dst_reports_every_structure() {
     );
     // A frame and 4 heat maps (planes and triangles, bvh and dst) per scene.
     assert_eq!(html.matches("src=\"data:image/png;base64,").count(), 2 * 5);
-    for s in [
+    const STRUCTURES: [&str; 9] = [
         "bvh",
         "dst",
         "dst-similar",
@@ -459,7 +459,8 @@ fn bench_dst_reports_every_structure() {
         "bvh4",
         "bvh8",
         "cwbvh",
-    ] {
+    ];
+    for s in STRUCTURES {
         assert!(html.contains(&format!("<td>{s}</td>")), "{s} missing");
     }
     assert!(json["machine"]["logical_cores"].as_u64().unwrap() >= 1);

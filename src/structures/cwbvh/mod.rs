@@ -41,8 +41,9 @@ use std::sync::Arc;
 
 /// Children per node.
 pub const WIDTH: usize = 8;
-/// Reference bit: a leaf (the rest: its first triangle block).
-const LEAF: u32 = 1 << 31;
+// Reference bit: a leaf (the rest: its first triangle block), as in
+// `bvh8`'s references.
+use super::wide::LEAF;
 /// Meta byte of a child node: `0b001` then `24 + slot`.
 const INNER_META: u8 = 0b0010_0000;
 /// Most blocks a leaf may have (the meta byte's unary count).
@@ -205,7 +206,7 @@ impl CwBvh {
     ///
     /// # Errors
     /// [`Error::Limit`] for a leaf of more than 12 triangles (three blocks
-    /// of four: build with `--max-leaf-size 12` or less), a node whose
+    /// of four: build with `--max-leaf 12` or less), a node whose
     /// leaves hold more than 32 blocks, a tree deeper than the traversal
     /// stack holds, 2³¹ or more nodes, or a box no 8-bit frame covers
     /// (coordinates near f32's range).
@@ -256,7 +257,7 @@ impl CwBvh {
         let count = prims.len().div_ceil(tri_block::LANES);
         if count > MAX_LEAF_BLOCKS {
             return Err(Error::Limit(format!(
-                "a leaf of {} triangles exceeds the cwbvh's {} per leaf (build with --max-leaf-size {} or less)",
+                "a leaf of {} triangles exceeds the cwbvh's {} per leaf (build with leaves of at most {}: --max-leaf on the command line, max_leaf_size in BuildOptions)",
                 prims.len(),
                 MAX_LEAF_BLOCKS * tri_block::LANES,
                 MAX_LEAF_BLOCKS * tri_block::LANES
@@ -378,19 +379,6 @@ impl CwBvh {
         self.sah_cost
     }
 
-    /// The canonical BVH id of reference `r` (visit logs).
-    fn canonical_id(&self, r: u32) -> u32 {
-        if r & LEAF == 0 {
-            return self.node_ids[r as usize];
-        }
-        let at = r & !LEAF;
-        let k = self
-            .leaf_ids
-            .binary_search_by_key(&at, |&(p, _)| p)
-            .expect("a placed leaf");
-        self.leaf_ids[k].1
-    }
-
     /// [`Accel::closest_hit`] (`any = false`) or [`Accel::any_hit`] on SIMD
     /// path `path` rather than the active one.
     ///
@@ -403,16 +391,7 @@ impl CwBvh {
         any: bool,
         stats: &mut S,
     ) -> Result<Option<Hit>> {
-        if !path.supported() {
-            return Err(Error::Invalid(format!(
-                "SIMD path {path} does not run here"
-            )));
-        }
-        Ok(if any {
-            traverse::trace_on::<WIDTH, Self, S, true>(path, self, ray, stats)
-        } else {
-            traverse::trace_on::<WIDTH, Self, S, false>(path, self, ray, stats)
-        })
+        traverse::trace_checked::<WIDTH, Self, S>(path, self, ray, any, stats)
     }
 }
 
@@ -461,7 +440,7 @@ impl WideTree<WIDTH> for CwBvh {
         (e, 6 * valid.count_ones())
     }
     fn canonical_id(&self, r: u32) -> u32 {
-        CwBvh::canonical_id(self, r)
+        traverse::canonical_id(&self.node_ids, &self.leaf_ids, r)
     }
 }
 
@@ -559,7 +538,8 @@ mod tests {
                         assert_eq!(n.imask & (1 << k), 0);
                         continue;
                     }
-                    let exact = bvh.nodes[cw.canonical_id(n.reference(k)) as usize].bounds;
+                    let exact =
+                        bvh.nodes[WideTree::canonical_id(&cw, n.reference(k)) as usize].bounds;
                     let d = n.child_bounds(k);
                     assert!(d.contains(&exact), "node {i} slot {k}");
                     for (a, &s) in s.iter().enumerate() {

@@ -18,7 +18,7 @@
 //! run each one the processor has.
 
 use crate::error::{Error, Result};
-use std::sync::atomic::{AtomicU8, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU8, Ordering};
 
 /// A vector instruction set a kernel may run on (see the module docs).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -62,8 +62,11 @@ impl SimdPath {
             .into_iter()
             .find(|p| p.name() == s.trim())
             .ok_or_else(|| {
+                // A long value is cut, so that the error stays one line.
+                let shown: String = s.chars().take(40).collect();
+                let more = if s.chars().count() > 40 { "…" } else { "" };
                 Error::Invalid(format!(
-                    "unknown SIMD path '{s}' (known: {})",
+                    "unknown SIMD path '{shown}{more}' (known: {})",
                     Self::ALL.map(|p| p.name()).join(", ")
                 ))
             })
@@ -125,6 +128,8 @@ pub fn best() -> SimdPath {
 /// Not yet chosen.
 const UNSET: u8 = u8::MAX;
 static ACTIVE: AtomicU8 = AtomicU8::new(UNSET);
+/// Whether the active path was forced (`set_active` or `RAYTREE_SIMD`).
+static FORCED: AtomicBool = AtomicBool::new(false);
 
 /// The path `RAYTREE_SIMD` asks for, if set.
 ///
@@ -132,13 +137,20 @@ static ACTIVE: AtomicU8 = AtomicU8::new(UNSET);
 /// [`Error::Invalid`] for an unknown name, or a path this processor cannot
 /// run.
 pub fn from_env() -> Result<Option<SimdPath>> {
-    let Ok(v) = std::env::var("RAYTREE_SIMD") else {
+    let Some(v) = std::env::var_os("RAYTREE_SIMD") else {
         return Ok(None);
     };
+    let Some(v) = v.to_str() else {
+        return Err(Error::Invalid(format!(
+            "RAYTREE_SIMD is not UTF-8 text (known paths: {})",
+            SimdPath::ALL.map(|p| p.name()).join(", ")
+        )));
+    };
+    // Set but empty: as if unset.
     if v.trim().is_empty() {
         return Ok(None);
     }
-    let p = SimdPath::parse(&v).map_err(|e| Error::Invalid(format!("RAYTREE_SIMD: {e}")))?;
+    let p = SimdPath::parse(v).map_err(|e| Error::Invalid(format!("RAYTREE_SIMD: {e}")))?;
     if !p.supported() {
         return Err(Error::Invalid(format!(
             "RAYTREE_SIMD={v}: this processor cannot run it (it can run: {})",
@@ -159,7 +171,9 @@ pub fn from_env() -> Result<Option<SimdPath>> {
 pub fn active() -> SimdPath {
     match ACTIVE.load(Ordering::Relaxed) {
         UNSET => {
-            let p = from_env().ok().flatten().unwrap_or_else(best);
+            let forced = from_env().ok().flatten();
+            FORCED.store(forced.is_some(), Ordering::Relaxed);
+            let p = forced.unwrap_or_else(best);
             ACTIVE.store(p as u8, Ordering::Relaxed);
             p
         }
@@ -179,7 +193,19 @@ pub fn set_active(path: SimdPath) -> Result<()> {
         )));
     }
     ACTIVE.store(path as u8, Ordering::Relaxed);
+    FORCED.store(true, Ordering::Relaxed);
     Ok(())
+}
+
+/// How the active path was chosen, for reports: "chosen at run time" or
+/// "forced".
+pub fn how_chosen() -> &'static str {
+    active();
+    if FORCED.load(Ordering::Relaxed) {
+        "forced (RAYTREE_SIMD or set_active)"
+    } else {
+        "chosen at run time"
+    }
 }
 
 #[cfg(test)]
@@ -193,6 +219,9 @@ mod tests {
         }
         let e = SimdPath::parse("avx1024").unwrap_err().to_string();
         assert!(e.contains("avx1024") && e.contains("avx512"), "{e}");
+        let long = "x".repeat(5000);
+        let e = SimdPath::parse(&long).unwrap_err().to_string();
+        assert!(e.len() < 200 && e.contains("…"), "{e}");
     }
 
     #[test]

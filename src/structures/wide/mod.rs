@@ -37,7 +37,7 @@ use crate::stats::Stats;
 use std::sync::Arc;
 
 /// Reference bit: the child is a leaf (the rest: its first triangle block).
-const LEAF: u32 = 1 << 31;
+pub(crate) const LEAF: u32 = 1 << 31;
 /// The reference of an empty lane.
 const EMPTY: u32 = u32::MAX;
 
@@ -223,19 +223,6 @@ impl<const W: usize> WideBvh<W> {
     pub fn is_empty(&self) -> bool {
         self.blocks.is_empty()
     }
-
-    /// The canonical BVH id of reference `r` (visit logs).
-    fn canonical_id(&self, r: u32) -> u32 {
-        if r & LEAF == 0 {
-            return self.node_ids[r as usize];
-        }
-        let at = r & !LEAF;
-        let k = self
-            .leaf_ids
-            .binary_search_by_key(&at, |&(p, _)| p)
-            .expect("a placed leaf");
-        self.leaf_ids[k].1
-    }
 }
 
 impl<const W: usize> Accel for WideBvh<W> {
@@ -274,16 +261,7 @@ impl<const W: usize> WideBvh<W> {
         any: bool,
         stats: &mut S,
     ) -> Result<Option<Hit>> {
-        if !path.supported() {
-            return Err(Error::Invalid(format!(
-                "SIMD path {path} does not run here"
-            )));
-        }
-        Ok(if any {
-            traverse::trace_on::<W, Self, S, true>(path, self, ray, stats)
-        } else {
-            traverse::trace_on::<W, Self, S, false>(path, self, ray, stats)
-        })
+        traverse::trace_checked::<W, Self, S>(path, self, ray, any, stats)
     }
 }
 

@@ -342,6 +342,44 @@ mod x86 {
     }
 }
 
+/// The canonical BVH id of reference `r` of a wide layout that lists its
+/// nodes' ids in order and its leaves' as `(first block, id)` pairs
+/// ascending (visit logs only).
+pub fn canonical_id(node_ids: &[u32], leaf_ids: &[(u32, u32)], r: u32) -> u32 {
+    if r & LEAF == 0 {
+        return node_ids[r as usize];
+    }
+    let at = r & !LEAF;
+    let k = leaf_ids
+        .binary_search_by_key(&at, |&(p, _)| p)
+        .expect("a placed leaf");
+    leaf_ids[k].1
+}
+
+/// Closest hit (`any = false`) or any hit on SIMD path `path` rather than
+/// the active one, so that a test can run every path the processor has.
+///
+/// # Errors
+/// [`crate::error::Error::Invalid`] if this processor cannot run `path`.
+pub fn trace_checked<const W: usize, T: WideTree<W>, S: Stats>(
+    path: SimdPath,
+    w: &T,
+    ray: &Ray,
+    any: bool,
+    stats: &mut S,
+) -> crate::error::Result<Option<Hit>> {
+    if !path.supported() {
+        return Err(crate::error::Error::Invalid(format!(
+            "SIMD path {path} does not run here"
+        )));
+    }
+    Ok(if any {
+        trace_on::<W, T, S, true>(path, w, ray, stats)
+    } else {
+        trace_on::<W, T, S, false>(path, w, ray, stats)
+    })
+}
+
 /// Closest hit (`ANY = false`) or any hit, on the active SIMD path.
 #[inline]
 pub fn trace<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool>(
@@ -550,6 +588,6 @@ impl<const W: usize> WideTree<W> for super::WideBvh<W> {
         (gather(&d, &n.children, mask), 6 * n.child_count() as u32)
     }
     fn canonical_id(&self, r: u32) -> u32 {
-        super::WideBvh::canonical_id(self, r)
+        canonical_id(&self.node_ids, &self.leaf_ids, r)
     }
 }
