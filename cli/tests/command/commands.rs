@@ -779,6 +779,38 @@ fn a_bad_memory_limit_is_an_error_naming_it() {
     ok(&out);
 }
 
+#[test]
+fn a_bad_simd_path_is_refused_before_any_work() {
+    for bad in ["avx1024", "AVX2", "portable,avx2"] {
+        let dir = tempfile::tempdir().unwrap();
+        let out = Command::new(env!("CARGO_BIN_EXE_raytree"))
+            .args(["render", "-s", "chess:2000", "-a", "cwbvh", "--width", "16"])
+            .args(["--height", "8", "-o", "x.png"])
+            .env("RAYTREE_SIMD", bad)
+            .current_dir(dir.path())
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{bad}: {err}");
+        assert_eq!(err.trim().lines().count(), 1, "{err}");
+        assert!(err.contains("RAYTREE_SIMD") && err.contains("known: portable"), "{err}");
+        assert!(!dir.path().join("x.png").exists());
+    }
+    // The portable path runs everywhere, and info says it was forced.
+    let dir = tempfile::tempdir().unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_raytree"))
+        .args(["info", "-s", "chess:2000"])
+        .env("RAYTREE_SIMD", "portable")
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    ok(&out);
+    let text = String::from_utf8_lossy(&out.stdout);
+    let line = text.lines().find(|l| l.starts_with("simd ")).unwrap();
+    assert!(line.contains("portable") && line.contains("forced"), "{line}");
+    assert!(text.contains("| cwbvh |"), "{text}");
+}
+
 fn render_to(name: &str, dir: &Path) -> Output {
     raytree(
         &[
