@@ -793,7 +793,10 @@ fn a_bad_simd_path_is_refused_before_any_work() {
         let err = String::from_utf8_lossy(&out.stderr);
         assert_eq!(out.status.code(), Some(1), "{bad}: {err}");
         assert_eq!(err.trim().lines().count(), 1, "{err}");
-        assert!(err.contains("RAYTREE_SIMD") && err.contains("known: portable"), "{err}");
+        assert!(
+            err.contains("RAYTREE_SIMD") && err.contains("known: portable"),
+            "{err}"
+        );
         assert!(!dir.path().join("x.png").exists());
     }
     // The portable path runs everywhere, and info says it was forced.
@@ -807,7 +810,10 @@ fn a_bad_simd_path_is_refused_before_any_work() {
     ok(&out);
     let text = String::from_utf8_lossy(&out.stdout);
     let line = text.lines().find(|l| l.starts_with("simd ")).unwrap();
-    assert!(line.contains("portable") && line.contains("forced"), "{line}");
+    assert!(
+        line.contains("portable") && line.contains("forced"),
+        "{line}"
+    );
     assert!(text.contains("| cwbvh |"), "{text}");
 }
 
