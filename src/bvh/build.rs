@@ -19,7 +19,7 @@ pub enum Builder {
     Hybrid,
     /// Binned SAH with spatial splits (Stich, Friedrich and Dietrich 2009):
     /// a triangle may be referenced by several leaves, each with the box of
-    /// its part ([`super::sbvh`]).
+    /// its part (`bvh::sbvh`).
     Sbvh,
 }
 

@@ -118,7 +118,7 @@ impl Aabb {
 pub const ROBUST_WIDENING: f32 =
     2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
 
-/// The relative step of [`widen_up`] and [`widen_down`]: `2⁻²¹`, so that
+/// The relative step of `widen_up` and `widen_down`: `2⁻²¹`, so that
 /// `1 ± step` is exact and the product `t · (1 ± step)`, after its own
 /// rounding (at most half an ulp, `2⁻²⁴` of it), still moves `t` by more
 /// than [`ROBUST_WIDENING`].
