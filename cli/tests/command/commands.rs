@@ -473,20 +473,7 @@ fn bench_dst_reports_every_structure() {
             .iter()
             .map(|r| r["structure"].as_str().unwrap())
             .collect();
-        assert_eq!(
-            names,
-            [
-                "bvh",
-                "dst",
-                "dst-similar",
-                "bih",
-                "htree",
-                "cbvh",
-                "bvh4",
-                "bvh8",
-                "cwbvh"
-            ]
-        );
+        assert_eq!(names, STRUCTURES);
         for row in rows {
             let name = row["structure"].as_str().unwrap();
             assert!(
