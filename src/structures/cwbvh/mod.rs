@@ -31,7 +31,7 @@ use super::shared::simd::SimdPath;
 use super::shared::tri_block::{self, TriBlock};
 use super::shared::MAX_STACK_DEPTH;
 use super::wide::collapse;
-use super::wide::traverse::{self, Entered, Isa, NodeRay, Portable, WideTree};
+use super::wide::traverse::{self, gather, Entered, Isa, NodeRay, Portable, WideTree};
 use super::Accel;
 use crate::bvh::{Bvh, NodeKind};
 use crate::error::{Error, Result};
@@ -423,20 +423,7 @@ impl WideTree<WIDTH> for CwBvh {
         let n = &self.nodes[node as usize];
         let valid = n.valid();
         let (d, mask) = I::test::<WIDTH>(r, &n.planes_on::<I>(), tmax);
-        let mut e = Entered {
-            dist: [0.0; WIDTH],
-            refs: [0; WIDTH],
-            count: 0,
-        };
-        let mut mask = mask & valid;
-        while mask != 0 {
-            // Masked: eight bits at most, so no bounds checks.
-            let k = mask.trailing_zeros() as usize & (WIDTH - 1);
-            mask &= mask - 1;
-            e.dist[e.count & (WIDTH - 1)] = d[k];
-            e.refs[e.count & (WIDTH - 1)] = n.reference(k);
-            e.count += 1;
-        }
+        let e = gather(&d, |k| n.reference(k), mask & valid);
         (e, 6 * valid.count_ones())
     }
     fn canonical_id(&self, r: u32) -> u32 {

@@ -66,7 +66,7 @@ pub trait WideTree<const W: usize> {
     fn root(&self) -> u32;
     /// Whether the tree holds no triangle.
     fn is_empty(&self) -> bool;
-    /// Wide levels below the root (sizes the stack).
+    /// Wide levels below the root (the stack holds `W − 1` per level).
     fn depth(&self) -> u32;
     /// The leaves' triangle blocks.
     fn blocks(&self) -> &[TriBlock];
@@ -79,10 +79,14 @@ pub trait WideTree<const W: usize> {
     fn canonical_id(&self, r: u32) -> u32;
 }
 
-/// Gathers the lanes of `mask` (entry distances `d`, references `refs`) in
-/// lane order.
+/// Gathers the lanes of `mask` (entry distances `d`, the reference of lane
+/// `k` given by `refs(k)`, asked only for the lanes gathered) in lane order.
 #[inline(always)]
-pub fn gather<const W: usize>(d: &[f32; W], refs: &[u32; W], mut mask: u32) -> Entered<W> {
+pub fn gather<const W: usize>(
+    d: &[f32; W],
+    refs: impl Fn(usize) -> u32,
+    mut mask: u32,
+) -> Entered<W> {
     let mut e = Entered {
         dist: [0.0; W],
         refs: [0; W],
@@ -95,7 +99,7 @@ pub fn gather<const W: usize>(d: &[f32; W], refs: &[u32; W], mut mask: u32) -> E
         let k = mask.trailing_zeros() as usize & (W - 1);
         mask &= mask - 1;
         e.dist[e.count & (W - 1)] = d[k];
-        e.refs[e.count & (W - 1)] = refs[k];
+        e.refs[e.count & (W - 1)] = refs(k);
         e.count += 1;
     }
     e
@@ -585,7 +589,7 @@ impl<const W: usize> WideTree<W> for super::WideBvh<W> {
     fn enter<I: Isa>(&self, node: u32, r: &NodeRay, tmax: f32) -> (Entered<W>, u32) {
         let n: &WideNode<W> = &self.nodes[node as usize];
         let (d, mask) = I::test::<W>(r, &n.planes, tmax);
-        (gather(&d, &n.children, mask), 6 * n.child_count() as u32)
+        (gather(&d, |k| n.children[k], mask), 6 * n.child_count() as u32)
     }
     fn canonical_id(&self, r: u32) -> u32 {
         canonical_id(&self.node_ids, &self.leaf_ids, r)
