@@ -589,7 +589,10 @@ impl<const W: usize> WideTree<W> for super::WideBvh<W> {
     fn enter<I: Isa>(&self, node: u32, r: &NodeRay, tmax: f32) -> (Entered<W>, u32) {
         let n: &WideNode<W> = &self.nodes[node as usize];
         let (d, mask) = I::test::<W>(r, &n.planes, tmax);
-        (gather(&d, |k| n.children[k], mask), 6 * n.child_count() as u32)
+        (
+            gather(&d, |k| n.children[k], mask),
+            6 * n.child_count() as u32,
+        )
     }
     fn canonical_id(&self, r: u32) -> u32 {
         canonical_id(&self.node_ids, &self.leaf_ids, r)
