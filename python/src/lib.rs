@@ -717,8 +717,10 @@ impl PyAccelerator {
     /// (per-ray traversal state, bvh only), ``conversion_seconds``, ``dst``
     /// and ``htree`` (node kinds, or None); ``bvh``: the canonical BVH's
     /// build report (``builder``, ``max_leaf_size``, ``build_seconds``,
-    /// ``nodes``, ``inner_nodes``, ``leaves``, ``depth``, ``sah_cost``,
-    /// ``degenerate_triangles``); ``triangles``: the scene's triangle count.
+    /// ``nodes``, ``inner_nodes``, ``leaves``, ``references``, ``depth``,
+    /// ``sah_cost``, ``degenerate_triangles``, ``optimized``, and
+    /// ``peak_heap_bytes``, None here: only the ``raytree`` command meters
+    /// its heap); ``triangles``: the scene's triangle count.
     /// Byte counts in bytes, times in seconds.
     fn info<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         let mut v =

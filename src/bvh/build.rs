@@ -184,6 +184,7 @@ fn finish(
         sah_cost: bvh.sah_cost(),
         degenerate_triangles: degenerate,
         optimized: None,
+        peak_heap_bytes: None,
     };
     bvh
 }

@@ -49,6 +49,12 @@ pub struct BuildStats {
     /// What [`Bvh::optimize`] did to the tree, if it ran (not kept in saved
     /// files).
     pub optimized: Option<OptimizeStats>,
+    /// The most heap bytes the build (and the optimization, if it ran) held
+    /// at once beyond what was live before it, output included. `None`
+    /// unless the program meters its heap: the library cannot, and the
+    /// `raytree` command does (its global allocator counts live bytes). Not
+    /// kept in saved files.
+    pub peak_heap_bytes: Option<u64>,
 }
 
 /// A binary BVH over triangle references.

@@ -149,6 +149,7 @@ impl Bvh {
                 sah_cost,
                 degenerate_triangles: 0,
                 optimized: None,
+                peak_heap_bytes: None,
             },
         };
         bvh.validate(triangles)

@@ -472,10 +472,15 @@ pub fn build_bvh(scene: &Scene, args: &SceneArgs) -> (Bvh, BuildStats) {
         scene.triangles.len()
     ));
     let opts = BuildOptions::new(args.builder()).with_max_leaf_size(args.max_leaf());
-    let mut bvh = Bvh::build(&scene.triangles, &opts);
-    if args.optimize {
-        bvh = bvh.optimize(&raytree::bvh::OptimizeOptions::default());
-    }
+    let (mut bvh, peak) = crate::meter::peak_during(|| {
+        let bvh = Bvh::build(&scene.triangles, &opts);
+        if args.optimize {
+            bvh.optimize(&raytree::bvh::OptimizeOptions::default())
+        } else {
+            bvh
+        }
+    });
+    bvh.stats.peak_heap_bytes = peak;
     let stats = bvh.stats.clone();
     (bvh, stats)
 }

@@ -150,6 +150,13 @@ pub fn run(args: InfoArgs) -> Result<()> {
         "bvh         {} builder, leaves of at most {}: {} nodes ({} inner, {} leaves), {} triangle references, depth {}, SAH cost {:.3}, {} degenerate triangles left out, built in {:.3} s",
         b.builder, b.max_leaf_size, b.nodes, b.inner_nodes, b.leaves, b.references, b.depth, b.sah_cost, b.degenerate_triangles, b.build_seconds
     );
+    if let Some(p) = b.peak_heap_bytes {
+        say!(
+            "            peak heap during the build: {} ({} bytes per triangle reference)",
+            common::mib(p as usize),
+            p / (b.references.max(1) as u64)
+        );
+    }
     if let Some(o) = &b.optimized {
         say!(
             "            optimized by reinsertion: SAH cost {:.3} -> {:.3} ({} reinsertions in {} rounds, {:.3} s)",

@@ -327,6 +327,16 @@ fn info_lists_the_structures() {
     let cells: Vec<&str> = cbvh.split('|').map(str::trim).collect();
     let want = 32.0 * inner as f64 / (52 * inner + 4 * leaves) as f64;
     assert_eq!(cells[6], format!("{:.1}%", 100.0 * want), "{cbvh}");
+    // The build's peak heap holds at least the tree it returns (its nodes
+    // and its references), and not absurdly more.
+    let peak = json["bvh"]["peak_heap_bytes"].as_u64().unwrap();
+    let refs = json["bvh"]["references"].as_u64().unwrap();
+    let tree = (inner + leaves) * std::mem::size_of::<raytree::bvh::Node>() as u64 + 4 * refs;
+    assert!(
+        peak >= tree && peak < 64 * tree,
+        "peak heap {peak} bytes for a tree of {tree}"
+    );
+    assert!(out.contains("peak heap during the build"), "{out}");
 }
 
 #[test]

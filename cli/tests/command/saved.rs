@@ -32,7 +32,12 @@ fn untimed(mut v: Value) -> Value {
     fn strip(v: &mut Value) {
         match v {
             Value::Object(m) => {
-                m.retain(|k, _| !k.ends_with("_seconds") && k != "saved" && k != "machine");
+                // Measurements of this run (times, a build's peak heap,
+                // which a loaded tree does not have) and where it ran.
+                m.retain(|k, _| {
+                    !k.ends_with("_seconds")
+                        && !["saved", "machine", "peak_heap_bytes"].contains(&k.as_str())
+                });
                 m.values_mut().for_each(strip);
             }
             Value::Array(a) => a.iter_mut().for_each(strip),
