@@ -6,6 +6,7 @@
 
 mod ao;
 mod ao_phased;
+mod built;
 pub mod heatmap;
 mod image;
 mod path;

@@ -16,13 +16,11 @@
 
 use raytree::bvh::{BuildOptions, BuildStats, Bvh};
 use raytree::error::Result;
-use raytree::render::{
-    render_ao_phased, render_ao_phased_uncounted, AoQuery, AoSettings, Phase, PhasedAo, Sampling,
-};
+use raytree::render::{AoQuery, AoSettings, Phase, PhasedAo, Sampling};
 use raytree::scene::{Camera, Scene};
 use raytree::stats::PerRay;
 use raytree::structures::state_bytes;
-use raytree::structures::{Built, SparseBvh, StructureKind, TraversalKind, WithAccel};
+use raytree::structures::{Built, SparseBvh, StructureKind, TraversalKind};
 use serde::Serialize;
 use std::sync::Arc;
 
@@ -147,43 +145,6 @@ pub struct Options {
 }
 
 /// One phased AO render: counted, or timed with the counters compiled out.
-struct Phased<'a> {
-    scene: &'a Scene,
-    ao: &'a AoSettings,
-    size: (usize, usize),
-    counted: bool,
-}
-
-impl<'a> Phased<'a> {
-    fn counted(scene: &'a Scene, ao: &'a AoSettings, size: (usize, usize)) -> Self {
-        Phased {
-            scene,
-            ao,
-            size,
-            counted: true,
-        }
-    }
-
-    fn timed(scene: &'a Scene, ao: &'a AoSettings, size: (usize, usize)) -> Self {
-        Phased {
-            counted: false,
-            ..Self::counted(scene, ao, size)
-        }
-    }
-}
-
-impl WithAccel for Phased<'_> {
-    type Output = PhasedAo;
-    fn run<A: raytree::structures::Accel>(self, a: &A) -> PhasedAo {
-        let (w, h) = self.size;
-        if self.counted {
-            render_ao_phased(a, self.scene, self.ao, w, h)
-        } else {
-            render_ao_phased_uncounted(a, self.scene, self.ao, w, h)
-        }
-    }
-}
-
 /// Measures every row on `scene`; `tick` is called after each render.
 pub fn run_scene(scene: &Scene, opts: &Options, tick: &dyn Fn()) -> Result<SceneResult> {
     let bvh = Bvh::build(&scene.triangles, &opts.build);
@@ -220,13 +181,12 @@ pub fn run_scene(scene: &Scene, opts: &Options, tick: &dyn Fn()) -> Result<Scene
             .map_err(|e| {
                 raytree::error::Error::Invalid(format!("cannot start {threads} threads: {e}"))
             })?;
-        let size = (w, h);
         // First one counted, untimed render per row: its per-ray work and
         // image, and the warm-up of what a first timed render would pay.
         let counted: Vec<PhasedAo> = built
             .iter()
             .map(|(_, _, b, _)| {
-                let r = pool.install(|| b.with(Phased::counted(scene, &ao, size)));
+                let r = pool.install(|| b.render_ao_phased(scene, &ao, w, h, true));
                 tick();
                 r
             })
@@ -236,7 +196,7 @@ pub fn run_scene(scene: &Scene, opts: &Options, tick: &dyn Fn()) -> Result<Scene
         let mut best: Vec<Option<PhasedAo>> = vec![None; built.len()];
         for _ in 0..opts.repeats.max(1) {
             for ((_, _, b, _), best) in built.iter().zip(&mut best) {
-                let r = pool.install(|| b.with(Phased::timed(scene, &ao, size)));
+                let r = pool.install(|| b.render_ao_phased(scene, &ao, w, h, false));
                 tick();
                 if best.as_ref().is_none_or(|b| r.seconds() < b.seconds()) {
                     *best = Some(r);

@@ -7,10 +7,10 @@ use clap::{Args, ValueEnum};
 use raytree::bvh::BuildStats;
 use raytree::error::{Error, Result};
 use raytree::render::heatmap::{HeatmapInfo, Measure};
-use raytree::render::{self, AoQuery, AoSettings, Integrator, PathSettings, Rendered, Sampling};
+use raytree::render::{self, AoQuery, AoSettings, Integrator, PathSettings, Sampling};
 use raytree::scene::{Camera, Scene};
 use raytree::stats::{Counters, PerRay};
-use raytree::structures::{Accel, StructureInfo, WithAccel};
+use raytree::structures::StructureInfo;
 use serde::Serialize;
 use std::path::PathBuf;
 
@@ -151,32 +151,6 @@ fn beside(out: &std::path::Path, suffix: &str) -> PathBuf {
     out.with_file_name(format!("{stem}-{suffix}.png"))
 }
 
-struct RenderWith<'a> {
-    scene: &'a Scene,
-    integrator: &'a Integrator,
-    width: usize,
-    height: usize,
-    quiet: bool,
-}
-
-impl WithAccel for RenderWith<'_> {
-    type Output = Rendered;
-    fn run<A: Accel>(self, accel: &A) -> Rendered {
-        let tiles = render::tile_count(self.width, self.height) as u64;
-        let bar = common::progress(tiles, "render", self.quiet);
-        let out = render::render(
-            accel,
-            self.scene,
-            self.integrator,
-            self.width,
-            self.height,
-            &|n| bar.inc(n as u64),
-        );
-        bar.finish_and_clear();
-        out
-    }
-}
-
 pub fn run(args: RenderArgs) -> Result<()> {
     common::check_structure(&args.structure)?;
     // Before any work: an output name whose format is unknown.
@@ -270,13 +244,13 @@ fn run_in_pool(args: &RenderArgs) -> Result<()> {
         false,
     )?;
     drop(bvh);
-    let rendered = built.with(RenderWith {
-        scene: &scene,
-        integrator: &integrator,
-        width,
-        height,
-        quiet: args.quiet,
-    });
+    let bar = common::progress(
+        render::tile_count(width, height) as u64,
+        "render",
+        args.quiet,
+    );
+    let rendered = built.render(&scene, &integrator, width, height, &|n| bar.inc(n as u64));
+    bar.finish_and_clear();
     rendered.image.save(&args.out)?;
     let mut heatmaps = Vec::new();
     for &m in &args.heatmap {

@@ -1,0 +1,86 @@
+//! The renders of a structure chosen at run time ([`Built`]), compiled here
+//! once for every structure. A caller that renders through these methods
+//! does not monomorphize the render loops and kernels itself: the command
+//! line's crate, for one, is compiled without optimization in the test
+//! profile and still renders at the core crate's speed.
+
+use super::{
+    render, render_ao_phased, render_ao_phased_uncounted, AoSettings, Integrator, PhasedAo,
+    Rendered,
+};
+use crate::scene::Scene;
+use crate::structures::{Accel, Built, WithAccel};
+
+struct Render<'a> {
+    scene: &'a Scene,
+    integrator: &'a Integrator,
+    size: (usize, usize),
+    progress: &'a (dyn Fn(usize) + Sync),
+}
+
+impl WithAccel for Render<'_> {
+    type Output = Rendered;
+    fn run<A: Accel>(self, a: &A) -> Rendered {
+        let (w, h) = self.size;
+        render(a, self.scene, self.integrator, w, h, self.progress)
+    }
+}
+
+struct Phased<'a> {
+    scene: &'a Scene,
+    ao: &'a AoSettings,
+    size: (usize, usize),
+    counted: bool,
+}
+
+impl WithAccel for Phased<'_> {
+    type Output = PhasedAo;
+    fn run<A: Accel>(self, a: &A) -> PhasedAo {
+        let (w, h) = self.size;
+        if self.counted {
+            render_ao_phased(a, self.scene, self.ao, w, h)
+        } else {
+            render_ao_phased_uncounted(a, self.scene, self.ao, w, h)
+        }
+    }
+}
+
+impl Built {
+    /// [`render`] through the structure held: a `width × height` image of
+    /// `scene`, its per-pixel work and counters; `progress` is called once
+    /// per finished tile with the tile's pixel count.
+    pub fn render(
+        &self,
+        scene: &Scene,
+        integrator: &Integrator,
+        width: usize,
+        height: usize,
+        progress: &(dyn Fn(usize) + Sync),
+    ) -> Rendered {
+        self.with(Render {
+            scene,
+            integrator,
+            size: (width, height),
+            progress,
+        })
+    }
+
+    /// [`render_ao_phased`] through the structure held when `counted`, else
+    /// [`render_ao_phased_uncounted`] (the same image and rays, the
+    /// traversal counters compiled out, for timed phases).
+    pub fn render_ao_phased(
+        &self,
+        scene: &Scene,
+        ao: &AoSettings,
+        width: usize,
+        height: usize,
+        counted: bool,
+    ) -> PhasedAo {
+        self.with(Phased {
+            scene,
+            ao,
+            size: (width, height),
+            counted,
+        })
+    }
+}
