@@ -38,6 +38,7 @@ pub mod error;
 pub mod fuzzing;
 pub mod geometry;
 pub mod names;
+pub mod par;
 pub mod rayfile;
 pub mod render;
 pub mod rng;

@@ -9,10 +9,10 @@
 
 use super::ao::{ao_value, eye_sample, EyeSample};
 use super::{AoSettings, Ctx, Image, RaySink, RaysOnly};
+use crate::par;
 use crate::scene::Scene;
 use crate::stats::Counters;
 use crate::structures::Accel;
-use rayon::prelude::*;
 use serde::Serialize;
 use std::time::Instant;
 
@@ -86,50 +86,44 @@ fn phased_with<A: Accel, S: RaySink + Default>(
     let pixels: Vec<usize> = (0..width * height).collect();
 
     let start = Instant::now();
-    let eye: Vec<(Vec<EyeSample>, Counters)> = pixels
-        .par_chunks(CHUNK)
-        .map(|chunk| {
-            let mut c = S::default();
-            let mut samples = Vec::with_capacity(chunk.len() * n);
-            for &p in chunk {
-                for sample in 0..s.eye_rays {
-                    samples.push(eye_sample(
-                        accel,
-                        &ctx,
-                        s,
-                        p % width,
-                        p / width,
-                        sample,
-                        &mut c,
-                    ));
-                }
+    let eye: Vec<(Vec<EyeSample>, Counters)> = par::map_chunks(&pixels, CHUNK, &|chunk| {
+        let mut c = S::default();
+        let mut samples = Vec::with_capacity(chunk.len() * n);
+        for &p in chunk {
+            for sample in 0..s.eye_rays {
+                samples.push(eye_sample(
+                    accel,
+                    &ctx,
+                    s,
+                    p % width,
+                    p / width,
+                    sample,
+                    &mut c,
+                ));
             }
-            (samples, c.counters())
-        })
-        .collect();
+        }
+        (samples, c.counters())
+    });
     let eye_phase = Phase {
         seconds: start.elapsed().as_secs_f64(),
         counters: sum(eye.iter().map(|e| e.1)),
     };
 
     let start = Instant::now();
-    let ao: Vec<(Vec<f32>, Counters)> = eye
-        .into_par_iter()
-        .map(|(mut samples, _)| {
-            let mut c = S::default();
-            let values = samples
-                .chunks_mut(n.max(1))
-                .map(|pixel| {
-                    let mut v = 0.0;
-                    for e in pixel {
-                        v += ao_value(accel, s, e, &mut c);
-                    }
-                    v / s.eye_rays.max(1) as f32
-                })
-                .collect();
-            (values, c.counters())
-        })
-        .collect();
+    let ao: Vec<(Vec<f32>, Counters)> = par::map_owned(eye, &|(mut samples, _)| {
+        let mut c = S::default();
+        let values = samples
+            .chunks_mut(n.max(1))
+            .map(|pixel| {
+                let mut v = 0.0;
+                for e in pixel {
+                    v += ao_value(accel, s, e, &mut c);
+                }
+                v / s.eye_rays.max(1) as f32
+            })
+            .collect();
+        (values, c.counters())
+    });
     let ao_phase = Phase {
         seconds: start.elapsed().as_secs_f64(),
         counters: sum(ao.iter().map(|a| a.1)),

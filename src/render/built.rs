@@ -5,8 +5,8 @@
 //! profile and still renders at the core crate's speed.
 
 use super::{
-    render, render_ao_phased, render_ao_phased_uncounted, AoSettings, Integrator, PhasedAo,
-    Rendered,
+    render, render_ao_phased, render_ao_phased_uncounted, render_uncounted, AoSettings, Integrator,
+    PhasedAo, Rendered,
 };
 use crate::scene::Scene;
 use crate::structures::{Accel, Built, WithAccel};
@@ -16,13 +16,18 @@ struct Render<'a> {
     integrator: &'a Integrator,
     size: (usize, usize),
     progress: &'a (dyn Fn(usize) + Sync),
+    counted: bool,
 }
 
 impl WithAccel for Render<'_> {
     type Output = Rendered;
     fn run<A: Accel>(self, a: &A) -> Rendered {
         let (w, h) = self.size;
-        render(a, self.scene, self.integrator, w, h, self.progress)
+        if self.counted {
+            render(a, self.scene, self.integrator, w, h, self.progress)
+        } else {
+            render_uncounted(a, self.scene, self.integrator, w, h, self.progress)
+        }
     }
 }
 
@@ -62,6 +67,26 @@ impl Built {
             integrator,
             size: (width, height),
             progress,
+            counted: true,
+        })
+    }
+
+    /// [`render_uncounted`] through the structure held: [`Built::render`]
+    /// with the traversal counters compiled out (rays are still counted).
+    pub fn render_uncounted(
+        &self,
+        scene: &Scene,
+        integrator: &Integrator,
+        width: usize,
+        height: usize,
+        progress: &(dyn Fn(usize) + Sync),
+    ) -> Rendered {
+        self.with(Render {
+            scene,
+            integrator,
+            size: (width, height),
+            progress,
+            counted: false,
         })
     }
 

@@ -21,7 +21,6 @@ pub use path::PathSettings;
 use crate::scene::Scene;
 use crate::stats::{Counters, Stats, Tally};
 use crate::structures::Accel;
-use rayon::prelude::*;
 use std::time::Instant;
 
 /// Which integrator, with its settings.
@@ -94,15 +93,12 @@ fn render_with<A: Accel, S: RaySink + Default>(
         width,
         height,
     };
-    let results: Vec<(Vec<(f32, Tally)>, Counters)> = tiles
-        .par_iter()
-        .map(|&(tx, ty)| {
-            let mut sink = S::default();
-            let px = render_tile(accel, &ctx, integrator, tx, ty, &mut sink);
-            progress(1);
-            (px, sink.counters())
-        })
-        .collect();
+    let results: Vec<(Vec<(f32, Tally)>, Counters)> = crate::par::map(&tiles, &|&(tx, ty)| {
+        let mut sink = S::default();
+        let px = render_tile(accel, &ctx, integrator, tx, ty, &mut sink);
+        progress(1);
+        (px, sink.counters())
+    });
     let mut image = Image::new(width, height);
     let mut work = heatmap::WorkImage {
         width,

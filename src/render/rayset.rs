@@ -96,11 +96,8 @@ pub fn path_rays<A: Accel + Sync>(
     h: usize,
     bounces: u32,
 ) -> Vec<Ray> {
-    use rayon::prelude::*;
-    let rows: Vec<Vec<Ray>> = (0..h)
-        .into_par_iter()
-        .map(|y| path_rays_of_row(scene, accel, y, w, h, bounces))
-        .collect();
+    let rows: Vec<Vec<Ray>> =
+        crate::par::map_range(h, &|y| path_rays_of_row(scene, accel, y, w, h, bounces));
     rows.concat()
 }
 

@@ -3,24 +3,9 @@
 //! random streams, and closest hits that do not depend on visiting order.
 
 use raytree::prelude::*;
-use raytree::render::{
-    render, render_uncounted, AoQuery, AoSettings, Image, Integrator, PathSettings, Rendered,
-    Sampling,
-};
+use raytree::render::{AoQuery, AoSettings, Image, Integrator, PathSettings, Sampling};
 use raytree::stats::Tally;
-use raytree::structures::{Built, StructureKind, TraversalKind, WithAccel};
-
-struct Render<'a> {
-    scene: &'a Scene,
-    integrator: &'a Integrator,
-}
-
-impl WithAccel for Render<'_> {
-    type Output = Image;
-    fn run<A: Accel>(self, a: &A) -> Image {
-        render(a, self.scene, self.integrator, 40, 32, &|_| {}).image
-    }
-}
+use raytree::structures::{Built, StructureKind, TraversalKind};
 
 fn pool(threads: usize) -> rayon::ThreadPool {
     rayon::ThreadPoolBuilder::new()
@@ -60,12 +45,7 @@ fn images_are_identical_for_every_structure_traversal_and_thread_count() {
             let mut reference: Option<Image> = None;
             for &(s, t) in &configs {
                 let (built, _) = Built::new(s, t, &bvh, scene.triangles.clone()).unwrap();
-                let job = || {
-                    built.with(Render {
-                        scene: &scene,
-                        integrator,
-                    })
-                };
+                let job = || built.render(&scene, integrator, 40, 32, &|_| {}).image;
                 let images = [
                     pool(1).install(job),
                     pool(2).install(job),
@@ -85,22 +65,6 @@ fn images_are_identical_for_every_structure_traversal_and_thread_count() {
 }
 
 /// Both renders of one structure: counted, then uncounted.
-struct Both<'a> {
-    scene: &'a Scene,
-    integrator: &'a Integrator,
-}
-
-impl WithAccel for Both<'_> {
-    type Output = [Rendered; 2];
-    fn run<A: Accel>(self, a: &A) -> [Rendered; 2] {
-        let (s, i) = (self.scene, self.integrator);
-        [
-            render(a, s, i, 40, 32, &|_| {}),
-            render_uncounted(a, s, i, 40, 32, &|_| {}),
-        ]
-    }
-}
-
 #[test]
 fn an_uncounted_render_traces_the_same_rays_and_counts_only_them() {
     let scene = Scene::builtin("chess:3000").unwrap();
@@ -121,10 +85,8 @@ fn an_uncounted_render_traces_the_same_rays_and_counts_only_them() {
         let (built, _) =
             Built::new(s, TraversalKind::Stack, &bvh, scene.triangles.clone()).unwrap();
         for integrator in &integrators {
-            let [counted, uncounted] = built.with(Both {
-                scene: &scene,
-                integrator,
-            });
+            let counted = built.render(&scene, integrator, 40, 32, &|_| {});
+            let uncounted = built.render_uncounted(&scene, integrator, 40, 32, &|_| {});
             let what = format!("{} / {integrator:?}", s.name());
             assert!(counted.image == uncounted.image, "{what}: images differ");
             assert!(counted.counters.rays > 0, "{what}: no rays");

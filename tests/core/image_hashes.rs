@@ -8,8 +8,8 @@ use crate::common;
 
 use common::configurations;
 use raytree::prelude::*;
-use raytree::render::{self, AoSettings, Integrator, PathSettings};
-use raytree::structures::{Accel, Built, WithAccel};
+use raytree::render::{AoSettings, Integrator, PathSettings, Rendered};
+use raytree::structures::Built;
 use std::fmt::Write;
 
 /// FNV-1a, 64 bits.
@@ -19,20 +19,16 @@ fn fnv(bytes: impl IntoIterator<Item = u8>) -> u64 {
     })
 }
 
-struct Render<'a>(&'a Scene, &'a Integrator);
-impl WithAccel for Render<'_> {
-    type Output = (u64, u64);
-    fn run<A: Accel>(self, a: &A) -> (u64, u64) {
-        let r = render::render(a, self.0, self.1, 40, 24, &|_| {});
-        let image = fnv(r.image.to_srgb8());
-        let work = fnv(r
-            .work
-            .pixels
-            .iter()
-            .flat_map(|t| [t.nodes, t.planes, t.triangles])
-            .flat_map(u32::to_le_bytes));
-        (image, work)
-    }
+/// FNV-1a of a render's sRGB image and of its per-pixel work.
+fn hashes(r: &Rendered) -> (u64, u64) {
+    let image = fnv(r.image.to_srgb8());
+    let work = fnv(r
+        .work
+        .pixels
+        .iter()
+        .flat_map(|t| [t.nodes, t.planes, t.triangles])
+        .flat_map(u32::to_le_bytes));
+    (image, work)
 }
 
 fn table() -> String {
@@ -57,7 +53,7 @@ fn table() -> String {
             for (s, t) in configurations() {
                 let (built, _) = Built::new(s, t, &bvh, scene.triangles.clone()).unwrap();
                 for (name, integrator) in &integrators {
-                    let (image, work) = built.with(Render(&scene, integrator));
+                    let (image, work) = hashes(&built.render(&scene, integrator, 40, 24, &|_| {}));
                     writeln!(
                         out,
                         "{spec} {builder:?} {}/{} {name} {image:016x} {work:016x}",

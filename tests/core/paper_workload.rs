@@ -6,9 +6,7 @@ use crate::common;
 
 use rayon::prelude::*;
 use raytree::prelude::*;
-use raytree::render::{
-    rayset, render, render_ao_phased, AoQuery, AoSettings, Image, Integrator, Sampling, PAPER_TMIN,
-};
+use raytree::render::{rayset, AoQuery, AoSettings, Image, Integrator, Sampling, PAPER_TMIN};
 use raytree::scene::Fov;
 use raytree::structures::{Built, WithAccel};
 
@@ -276,28 +274,25 @@ struct AoAgrees<'a> {
 impl WithAccel for AoAgrees<'_> {
     type Output = Result<(), String>;
     fn run<A: Accel>(self, a: &A) -> Result<(), String> {
-        self.rays
-            .par_iter()
-            .zip(self.want)
-            .enumerate()
-            .try_for_each(|(i, (r, &want))| {
-                let got = a.closest_hit(r, &mut NoStats);
-                if !common::same_closest(got, want, self.oracle, r) {
-                    return Err(format!(
-                        "AO ray {i} {r:?}: closest {got:?}, oracle {want:?}"
-                    ));
+        raytree::par::try_for_each_index(self.rays.len(), &|i| {
+            let (r, want) = (&self.rays[i], self.want[i]);
+            let got = a.closest_hit(r, &mut NoStats);
+            if !common::same_closest(got, want, self.oracle, r) {
+                return Err(format!(
+                    "AO ray {i} {r:?}: closest {got:?}, oracle {want:?}"
+                ));
+            }
+            if let Some(h) = got {
+                if !(h.t >= PAPER_TMIN && h.t <= 32.0) {
+                    return Err(format!("AO ray {i}: t {} outside [1e-3, 32]", h.t));
                 }
-                if let Some(h) = got {
-                    if !(h.t >= PAPER_TMIN && h.t <= 32.0) {
-                        return Err(format!("AO ray {i}: t {} outside [1e-3, 32]", h.t));
-                    }
-                }
-                let any = a.any_hit(r, &mut NoStats);
-                if any.is_some() != want.is_some() {
-                    return Err(format!("AO ray {i}: any-hit {any:?}, oracle {want:?}"));
-                }
-                Ok(())
-            })
+            }
+            let any = a.any_hit(r, &mut NoStats);
+            if any.is_some() != want.is_some() {
+                return Err(format!("AO ray {i}: any-hit {any:?}, oracle {want:?}"));
+            }
+            Ok(())
+        })
     }
 }
 
@@ -345,23 +340,6 @@ fn paper_ao_rays_agree_with_the_oracle_for_every_traversal() {
     }
 }
 
-struct RenderImage<'a> {
-    scene: &'a Scene,
-    ao: &'a AoSettings,
-    size: (usize, usize),
-}
-
-impl WithAccel for RenderImage<'_> {
-    type Output = (Image, Image);
-    fn run<A: Accel>(self, a: &A) -> (Image, Image) {
-        let (w, h) = self.size;
-        let i = Integrator::Ao(self.ao.clone());
-        let plain = render(a, self.scene, &i, w, h, &|_| {}).image;
-        let phased = render_ao_phased(a, self.scene, self.ao, w, h).image;
-        (plain, phased)
-    }
-}
-
 #[test]
 fn every_traversal_renders_the_same_image_in_the_papers_form() {
     let mut scene = Scene::builtin("chess:3000").unwrap();
@@ -381,11 +359,10 @@ fn every_traversal_renders_the_same_image_in_the_papers_form() {
             let mut reference: Option<Image> = None;
             for (k, t) in common::configurations() {
                 let (built, _) = Built::new(k, t, &bvh, scene.triangles.clone()).unwrap();
-                let (plain, phased) = built.with(RenderImage {
-                    scene: &scene,
-                    ao: &s,
-                    size: (w, h),
-                });
+                let plain = built
+                    .render(&scene, &Integrator::Ao(s.clone()), w, h, &|_| {})
+                    .image;
+                let phased = built.render_ao_phased(&scene, &s, w, h, true).image;
                 let what = format!(
                     "{query:?} / {} / {} / {}",
                     k.name(),

@@ -67,7 +67,8 @@ impl WithAccel for Agrees<'_> {
     type Output = Result<(), String>;
     fn run<A: Accel>(self, a: &A) -> Result<(), String> {
         let c = self.0;
-        c.rays.par_iter().enumerate().try_for_each(|(i, r)| {
+        raytree::par::try_for_each_index(c.rays.len(), &|i| {
+            let r = &c.rays[i];
             let want = c.closest[i];
             let got = a.closest_hit(r, &mut NoStats);
             if !common::same_closest(got, want, &c.oracle, r) {

@@ -6,7 +6,6 @@
 
 use crate::common;
 
-use rayon::prelude::*;
 use raytree::prelude::*;
 use raytree::structures::{Built, StructureKind, TraversalKind, WithAccel};
 
@@ -15,10 +14,9 @@ struct Answers<'a>(&'a [Ray]);
 impl WithAccel for Answers<'_> {
     type Output = Vec<(Option<Hit>, Option<Hit>)>;
     fn run<A: Accel>(self, a: &A) -> Self::Output {
-        self.0
-            .par_iter()
-            .map(|r| (a.closest_hit(r, &mut NoStats), a.any_hit(r, &mut NoStats)))
-            .collect()
+        raytree::par::map(self.0, &|r| {
+            (a.closest_hit(r, &mut NoStats), a.any_hit(r, &mut NoStats))
+        })
     }
 }
 

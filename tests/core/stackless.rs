@@ -16,16 +16,13 @@ struct Logs<'a>(&'a [Ray]);
 impl WithAccel for Logs<'_> {
     type Output = Vec<Trace>;
     fn run<A: Accel>(self, a: &A) -> Vec<Trace> {
-        self.0
-            .par_iter()
-            .map(|r| {
-                let mut c = VisitLog::default();
-                let closest = a.closest_hit(r, &mut c);
-                let mut y = VisitLog::default();
-                let any = a.any_hit(r, &mut y);
-                (closest, c.visits, any, y.visits)
-            })
-            .collect()
+        raytree::par::map(self.0, &|r| {
+            let mut c = VisitLog::default();
+            let closest = a.closest_hit(r, &mut c);
+            let mut y = VisitLog::default();
+            let any = a.any_hit(r, &mut y);
+            (closest, c.visits, any, y.visits)
+        })
     }
 }
 
