@@ -148,11 +148,14 @@ fn par_chunks<T: Send>(rays: &[Ray], out: &mut [T], chunk: &(dyn Fn(&[Ray], &mut
         .for_each(|(r, o)| chunk(r, o));
 }
 
+/// A chunk's work with its counters: rays, their slots, the chunk's sums.
+type CountedChunk<'a, T> = dyn Fn(&[Ray], &mut [T], &mut Counters) + Sync + 'a;
+
 /// [`par_chunks`] with a [`Counters`] per chunk; their sum.
 fn par_chunks_counted<T: Send>(
     rays: &[Ray],
     out: &mut [T],
-    chunk: &(dyn Fn(&[Ray], &mut [T], &mut Counters) + Sync),
+    chunk: &CountedChunk<'_, T>,
 ) -> Counters {
     rays.par_chunks(CHUNK)
         .zip(out.par_chunks_mut(CHUNK))
