@@ -62,13 +62,7 @@ impl Built {
         height: usize,
         progress: &(dyn Fn(usize) + Sync),
     ) -> Rendered {
-        self.with(Render {
-            scene,
-            integrator,
-            size: (width, height),
-            progress,
-            counted: true,
-        })
+        self.render_as(scene, integrator, (width, height), progress, true)
     }
 
     /// [`render_uncounted`] through the structure held: [`Built::render`]
@@ -81,12 +75,23 @@ impl Built {
         height: usize,
         progress: &(dyn Fn(usize) + Sync),
     ) -> Rendered {
+        self.render_as(scene, integrator, (width, height), progress, false)
+    }
+
+    fn render_as(
+        &self,
+        scene: &Scene,
+        integrator: &Integrator,
+        size: (usize, usize),
+        progress: &(dyn Fn(usize) + Sync),
+        counted: bool,
+    ) -> Rendered {
         self.with(Render {
             scene,
             integrator,
-            size: (width, height),
+            size,
             progress,
-            counted: false,
+            counted,
         })
     }
 
