@@ -5,6 +5,7 @@ use raytree::geometry::{Hit, Ray, Triangle};
 use raytree::stats::{Counters, Tally};
 use raytree::structures::shared::own_box::OwnBoxNode;
 use raytree::structures::{stack_capacity, Accel, Built, WithAccel};
+use std::borrow::Cow;
 use std::time::Instant;
 use wgpu::util::DeviceExt;
 
@@ -71,13 +72,46 @@ pub struct GpuAccel<'a> {
 /// The kernel and buffers of a built structure.
 struct Upload<'b> {
     kernel: Kernel,
-    nodes: &'b [u32],
+    nodes: Cow<'b, [u32]>,
+    /// The leaf list, or the wide layouts' triangle blocks.
     index: &'b [u32],
+    /// The mesh (none for the wide layouts, whose blocks hold the vertices).
     triangles: &'b [Triangle],
     root: u32,
     bounds: [f32; 6],
     empty: bool,
-    depth: u32,
+    /// Entries of the private stack.
+    stack: usize,
+}
+
+/// A wide BVH's nodes as the words of their `WideNode` records: six plane
+/// rows of `W` floats, `W` child references, zeros in the padding to 64
+/// bytes.
+fn wide_words<const W: usize>(w: &raytree::structures::WideBvh<W>) -> Vec<u32> {
+    let stride = std::mem::size_of::<raytree::structures::wide::WideNode<W>>() / 4;
+    let mut words = Vec::with_capacity(w.nodes().len() * stride);
+    for n in w.nodes() {
+        let start = words.len();
+        words.extend(n.planes.iter().flatten().map(|p| p.to_bits()));
+        words.extend(n.children);
+        words.resize(start + stride, 0);
+    }
+    words
+}
+
+fn wide<const W: usize>(w: &raytree::structures::WideBvh<W>) -> Upload<'_> {
+    Upload {
+        kernel: Kernel::Wide(W as u32),
+        nodes: Cow::Owned(wide_words(w)),
+        index: bytemuck::cast_slice(w.blocks()),
+        triangles: &[],
+        root: w.root(),
+        bounds: [0.0; 6],
+        empty: w.is_empty(),
+        // `W − 1` pending children per level below the root, and the node
+        // being visited.
+        stack: w.depth() as usize * (W - 1) + 1,
+    }
 }
 
 fn upload_of(built: &Built) -> Result<Upload<'_>> {
@@ -85,25 +119,25 @@ fn upload_of(built: &Built) -> Result<Upload<'_>> {
     fn sparse(kernel: Kernel, l: &raytree::structures::SparseBvh) -> Upload<'_> {
         Upload {
             kernel,
-            nodes: bytemuck::cast_slice(l.nodes()),
+            nodes: Cow::Borrowed(bytemuck::cast_slice(l.nodes())),
             index: l.index(),
             triangles: l.triangles(),
             root: 0,
             bounds: l.bounds().to_array(),
             empty: l.is_empty(),
-            depth: l.depth(),
+            stack: stack_capacity(l.depth()),
         }
     }
     Ok(match built {
         B::Bvh(b) => Upload {
             kernel: Kernel::BvhStack,
-            nodes: b.words(),
+            nodes: Cow::Borrowed(b.words()),
             index: b.index(),
             triangles: b.triangles(),
             root: b.root(),
             bounds: b.root_bounds().to_array(),
             empty: b.is_empty(),
-            depth: b.depth(),
+            stack: stack_capacity(b.depth()),
         },
         B::StackOnSparse(s) => sparse(Kernel::SparseStack, &s.layout),
         B::Sparse(s) => sparse(Kernel::Sparse, &s.layout),
@@ -115,33 +149,37 @@ fn upload_of(built: &Built) -> Result<Upload<'_>> {
         B::Laine8(s) => sparse(Kernel::Laine(8), &s.layout),
         B::Dst(d) => Upload {
             kernel: Kernel::Dst,
-            nodes: d.words(),
+            nodes: Cow::Borrowed(d.words()),
             index: d.index_list(),
             triangles: d.triangles(),
             root: 0,
             bounds: d.root_bounds().to_array(),
             empty: d.is_empty(),
-            depth: d.depth(),
+            stack: stack_capacity(d.depth()),
         },
         B::ImplicitB(s) => {
             let l = &s.layout;
             let slots = l.slots();
             Upload {
                 kernel: Kernel::ImplicitB,
-                nodes: bytemuck::cast_slice(&slots[..implicit_used(slots, l.is_empty())]),
+                nodes: Cow::Borrowed(bytemuck::cast_slice(
+                    &slots[..implicit_used(slots, l.is_empty())],
+                )),
                 index: l.index(),
                 triangles: l.triangles(),
                 root: 1,
                 bounds: l.bounds().to_array(),
                 empty: l.is_empty(),
-                depth: 0,
+                stack: stack_capacity(0),
             }
         }
+        B::Bvh4(w) => wide(w),
+        B::Bvh8(w) => wide(w),
         other => {
             return Err(GpuError::Unsupported(format!(
                 "the {} structure ({})",
                 other.kind().0.name(),
-                "GPU kernels exist for bvh with stack, sparse, implicit-b, hapala and laine-k, and for dst and dst-similar"
+                "GPU kernels exist for bvh with stack, sparse, implicit-b, hapala and laine-k, for dst and dst-similar, and for bvh4 and bvh8"
             )))
         }
     })
@@ -213,7 +251,7 @@ impl<'a> GpuAccel<'a> {
         let bytes = tris.len() * 4 + up.index.len() * 4 + up.nodes.len() * 4;
         let triangles = buffer("triangles", bytemuck::cast_slice(&tris))?;
         let index = buffer("index", bytemuck::cast_slice(up.index))?;
-        let nodes = buffer("nodes", bytemuck::cast_slice(up.nodes))?;
+        let nodes = buffer("nodes", bytemuck::cast_slice(&up.nodes))?;
         let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
             binding,
             visibility: wgpu::ShaderStages::COMPUTE,
@@ -253,7 +291,7 @@ impl<'a> GpuAccel<'a> {
             label: Some(up.kernel.file()),
             source: wgpu::ShaderSource::Wgsl(
                 up.kernel
-                    .source(stack_capacity(up.depth), gpu.has_f64())
+                    .source(up.stack, gpu.has_f64())
                     .into(),
             ),
         });

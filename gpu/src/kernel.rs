@@ -14,6 +14,7 @@ const HAPALA: &str = include_str!("wgsl/hapala.wgsl");
 const LAINE: &str = include_str!("wgsl/laine.wgsl");
 const IMPLICIT_B: &str = include_str!("wgsl/implicit_b.wgsl");
 const DST: &str = include_str!("wgsl/dst.wgsl");
+const WIDE: &str = include_str!("wgsl/wide.wgsl");
 
 /// The f64 edge functions of the CPU's triangle test: both products are
 /// exact in f64 (24-bit by 24-bit significands), so the difference is
@@ -46,6 +47,9 @@ pub enum Kernel {
     Dst,
     /// LAINE-k with a short stack of `k` entries (`structures/sparse/laine.rs`).
     Laine(u32),
+    /// The wide BVHs' traversal (`structures/wide/traverse.rs`) over nodes
+    /// of 4 (`bvh4`) or 8 (`bvh8`) children and their triangle blocks.
+    Wide(u32),
 }
 
 impl Kernel {
@@ -59,11 +63,12 @@ impl Kernel {
             Kernel::Laine(_) => "laine.wgsl",
             Kernel::ImplicitB => "implicit_b.wgsl",
             Kernel::Dst => "dst.wgsl",
+            Kernel::Wide(_) => "wide.wgsl",
         }
     }
 
     /// The full WGSL source: constants, prelude, kernel; `stack` is the
-    /// private stack's size for the stack kernels.
+    /// private stack's size for the stack kernels (entries).
     pub(crate) fn source(&self, stack: usize, f64: bool) -> String {
         let body = match self {
             Kernel::BvhStack => BVH_STACK.to_string(),
@@ -73,6 +78,11 @@ impl Kernel {
             Kernel::Laine(k) => LAINE.replace("SHORT_K", &format!("{k}u")),
             Kernel::ImplicitB => IMPLICIT_B.to_string(),
             Kernel::Dst => DST.to_string(),
+            // A `WideNode<W>`: 7·W words padded to 64 bytes.
+            Kernel::Wide(w) => format!(
+                "const WIDTH: u32 = {w}u;\nconst NODE_WORDS: u32 = {}u;\n{WIDE}",
+                (7 * w).next_multiple_of(16)
+            ),
         };
         let consts = [
             ("ILL_CONDITIONED", ILL_CONDITIONED),

@@ -94,7 +94,12 @@ fn check_scene(gpu: &Gpu, scene: &Scene, n: usize) {
             .unwrap();
             check(gpu, &implicit, &rays, &what("implicit-b"));
         }
-        for kind in [StructureKind::Dst, StructureKind::DstSimilar] {
+        for kind in [
+            StructureKind::Dst,
+            StructureKind::DstSimilar,
+            StructureKind::Bvh4,
+            StructureKind::Bvh8,
+        ] {
             let (dst, _) = Built::new(kind, TraversalKind::Stack, &bvh, tris.clone()).unwrap();
             check(gpu, &dst, &rays, &what(kind.name()));
         }

@@ -108,21 +108,42 @@ pub fn trace(gpu: &Gpu, _built: &Built, _rays: &[Ray], _any: bool) -> Result<Tra
     match *gpu {}
 }
 
+/// The workloads of `bench gpu`.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum GpuPreset {
+    /// Table 1 on the closest-hit AO rays of one eye ray per pixel of a
+    /// 256×256 image (4 per hit, radius 4.5% of the scene's diagonal), and
+    /// the path bounce rays of the same image; scene: chess.
+    Quick,
+    /// The papers' workloads: Table 1 on the stackless paper's (as `bench
+    /// stackless --preset paper`: 800×300 on its CHESS scenes through its
+    /// camera, else 512×512; 16 stratified eye rays per pixel, 16
+    /// closest-hit AO rays per hit, radius 32 on CHESS), eye and AO rays
+    /// together; the frame-time column on the dual-split paper's (1024×1024,
+    /// 1 sample per pixel, 5 bounces, each scene's own camera); scenes:
+    /// chess and hairball:2.8M.
+    Paper,
+}
+
 /// `raytree bench gpu`'s options.
 #[derive(clap::Args, Debug)]
 pub struct GpuBenchArgs {
-    /// Scenes, repeatable: built-in names or mesh files [default: chess].
+    /// Scenes, repeatable: built-in names or mesh files [default: the preset's].
     #[arg(long = "scene", short = 's')]
     pub scenes: Vec<String>,
-    /// Image width in pixels: one eye ray per pixel.
-    #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u32).range(1..=16384))]
-    pub width: u32,
-    /// Image height in pixels.
-    #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u32).range(1..=16384))]
-    pub height: u32,
-    /// Closest-hit AO rays per eye-ray hit (radius: 4.5% of the scene's diagonal).
-    #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..=256))]
-    pub ao_rays: u32,
+    /// The workload.
+    #[arg(long, value_enum, default_value_t = GpuPreset::Quick)]
+    pub preset: GpuPreset,
+    /// Image width in pixels [default: the preset's].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    pub width: Option<u32>,
+    /// Image height in pixels [default: the preset's].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    pub height: Option<u32>,
+    /// Closest-hit AO rays per eye-ray hit [default: the preset's, 4 or 16].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=256))]
+    pub ao_rays: Option<u32>,
     /// Timed runs of each ray set on each device; the fastest counts.
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=100))]
     pub repeats: u32,
@@ -163,7 +184,10 @@ pub struct GpuScene {
     pub scene: String,
     /// Triangles.
     pub triangles: usize,
-    /// AO rays (closest hit, the stackless paper's Table 1 workload).
+    /// The Table 1 workload in words: image, camera, rays per pixel and
+    /// per hit, radius, form.
+    pub ao_workload: String,
+    /// Rays of the Table 1 workload (all closest-hit queries).
     pub ao_rays: usize,
     /// Table 1: each traversal over the hybrid BVH, ratios to STACK on the
     /// same (sparse) nodes.
@@ -232,12 +256,18 @@ pub fn run_bench(a: GpuBenchArgs) -> Result<()> {
     if gpu.is_software() {
         say!("note       a software adapter: these times check the kernels, they do not measure a GPU");
     }
-    let scenes = if a.scenes.is_empty() {
-        vec!["chess".to_string()]
-    } else {
-        a.scenes.clone()
+    let paper = a.preset == GpuPreset::Paper;
+    let scenes = match (a.scenes.is_empty(), paper) {
+        (false, _) => a.scenes.clone(),
+        (true, false) => vec!["chess".to_string()],
+        (true, true) => vec!["chess".to_string(), "hairball:2.8M".to_string()],
     };
-    let (w, h) = (a.width as usize, a.height as usize);
+    let size = |default: u32| {
+        (
+            a.width.unwrap_or(default) as usize,
+            a.height.unwrap_or(default) as usize,
+        )
+    };
     let repeats = a.repeats as usize;
     let err = |e: raytree_gpu::GpuError| Error::Invalid(e.to_string());
     let mut results = Vec::new();
@@ -284,9 +314,46 @@ pub fn run_bench(a: GpuBenchArgs) -> Result<()> {
         // Table 1: AO rays over the hybrid BVH.
         let hybrid = Bvh::build(&tris, &BuildOptions::new(Builder::Hybrid));
         let binary = raytree::structures::BinaryBvh::from_bvh(&hybrid, tris.clone())?;
-        let eye = rayset::eye_rays(&scene, w, h, 1);
-        let radius = AoSettings::RADIUS_FRACTION * scene.mesh.bounds().extent().length();
-        let ao = rayset::ao_rays(&scene, &binary, &eye, a.ao_rays, radius);
+        let diagonal_radius = AoSettings::RADIUS_FRACTION * scene.mesh.bounds().extent().length();
+        let (ao, ao_workload) = if paper {
+            // The stackless paper's workload, as `bench stackless --preset paper`.
+            let mut view = scene.clone();
+            let preset = crate::bench::stackless::Preset::Paper;
+            preset.apply_view(&mut view);
+            let (pw, ph) = preset.size(&view);
+            let (w, h) = (a.width.map_or(pw, |w| w as usize), a.height.map_or(ph, |h| h as usize));
+            let radius = if view.is_stackless_chess() {
+                raytree::scene::Scene::STACKLESS_CHESS_AO_RADIUS
+            } else {
+                diagonal_radius
+            };
+            let (query, sampling) = preset.form();
+            let (eye_n, ao_n) = preset.rays();
+            let settings = AoSettings {
+                query,
+                sampling,
+                ..AoSettings::plain(eye_n, a.ao_rays.unwrap_or(ao_n), radius)
+            };
+            let (eye, ao) = rayset::ao_workload(&view, &binary, &settings, w, h);
+            let rays: Vec<Ray> = eye.into_iter().map(|(r, _)| r).chain(ao).collect();
+            let words = format!(
+                "{w}×{h}, camera {}, {} eye rays per pixel and {} AO rays per hit, radius {radius:.3}, {}; eye and AO rays",
+                view.camera.fov,
+                settings.eye_rays,
+                settings.ao_rays,
+                settings.form()
+            );
+            (rays, words)
+        } else {
+            let (w, h) = size(256);
+            let per_hit = a.ao_rays.unwrap_or(4);
+            let eye = rayset::eye_rays(&scene, w, h, 1);
+            let ao = rayset::ao_rays(&scene, &binary, &eye, per_hit, diagonal_radius);
+            let words = format!(
+                "{w}×{h} eye rays, {per_hit} per hit, radius {diagonal_radius:.3}, closest hit; AO rays"
+            );
+            (ao, words)
+        };
         let mut stackless = Vec::new();
         let (b, _) = Built::new(
             StructureKind::Bvh,
@@ -324,12 +391,17 @@ pub fn run_bench(a: GpuBenchArgs) -> Result<()> {
         // The dual-split paper's frame time: path bounce rays, SAH BVH.
         let sah = Bvh::build(&tris, &BuildOptions::sah());
         let sah_binary = raytree::structures::BinaryBvh::from_bvh(&sah, tris.clone())?;
-        let path = rayset::path_rays(&scene, &sah_binary, w, h, 5);
+        // The dual-split paper's frame: 1024×1024 at 1 sample per pixel.
+        let (pw, ph) = size(if paper { 1024 } else { 256 });
+        let bounces = raytree::render::PathSettings::default().bounces;
+        let path = rayset::path_rays(&scene, &sah_binary, pw, ph, bounces);
         let mut dst = Vec::new();
         for kind in [
             StructureKind::Bvh,
             StructureKind::Dst,
             StructureKind::DstSimilar,
+            StructureKind::Bvh4,
+            StructureKind::Bvh8,
         ] {
             let (built, _) = Built::new(kind, TraversalKind::Stack, &sah, tris.clone())?;
             dst.push(measure(kind.name().to_string(), &built, &path)?);
@@ -338,6 +410,7 @@ pub fn run_bench(a: GpuBenchArgs) -> Result<()> {
         let r = GpuScene {
             scene: scene.name.clone(),
             triangles: tris.len(),
+            ao_workload,
             ao_rays: ao.len(),
             stackless,
             path_rays: path.len(),
@@ -375,14 +448,14 @@ pub fn run_bench(a: GpuBenchArgs) -> Result<()> {
         say!("scene      {} ({} triangles)", r.scene, r.triangles);
         table(
             format!(
-                "stackless Table 1: {} closest-hit AO rays ({w}×{h} eye rays, {} per hit, radius {radius:.3}), hybrid BVH; ratios to STACK on the sparse nodes",
-                r.ao_rays, a.ao_rays
+                "stackless Table 1: {} rays ({}), hybrid BVH; ratios to STACK on the sparse nodes",
+                r.ao_rays, r.ao_workload
             ),
             &r.stackless,
         );
         table(
             format!(
-                "dual-split frame time: {} path-tracing bounce rays ({w}×{h}, 5 bounces), SAH BVH; ratios to the BVH",
+                "dual-split frame time: {} path-tracing bounce rays ({pw}×{ph}, 1 sample per pixel, {bounces} bounces), SAH BVH; ratios to the BVH",
                 r.path_rays
             ),
             &r.dst,
@@ -394,6 +467,7 @@ pub fn run_bench(a: GpuBenchArgs) -> Result<()> {
         struct Report<'a> {
             adapter: String,
             software: bool,
+            preset: GpuPreset,
             scenes: &'a [GpuScene],
         }
         super::common::write_json(
@@ -401,6 +475,7 @@ pub fn run_bench(a: GpuBenchArgs) -> Result<()> {
             &Report {
                 adapter: gpu.describe(),
                 software: gpu.is_software(),
+                preset: a.preset,
                 scenes: &results,
             },
         )?;

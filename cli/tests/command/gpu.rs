@@ -44,6 +44,7 @@ fn trace_on_the_gpu_gives_the_cpus_hits_and_counters() {
         &["-a", "bvh", "-t", "sparse"],
         &["-a", "bvh", "-t", "laine-2", "--builder", "hybrid"],
         &["-a", "dst"],
+        &["-a", "bvh8"],
     ] {
         for any in [false, true] {
             let mut cpu_args = structure.to_vec();
@@ -105,6 +106,55 @@ fn trace_on_the_gpu_gives_the_cpus_hits_and_counters() {
                 json["counters"], want_json["counters"],
                 "{structure:?} any={any}"
             );
+        }
+    }
+}
+
+#[test]
+fn bench_gpu_paper_preset_runs_both_papers_workloads() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = raytree(
+        &[
+            "bench", "gpu", "--preset", "paper", "-s", "chess:2000", "--width", "24", "--height",
+            "9", "--repeats", "1", "--json", "g.json",
+        ],
+        dir.path(),
+    );
+    if !out.status.success() {
+        let err = String::from_utf8_lossy(&out.stderr);
+        if err.contains("no GPU adapter") && std::env::var_os("RAYTREE_REQUIRE_GPU").is_none() {
+            eprintln!("skipping the GPU bench test: {err}");
+            return;
+        }
+        panic!("{err}");
+    }
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("g.json")).unwrap())
+            .unwrap();
+    assert_eq!(json["preset"], "paper");
+    let scene = &json["scenes"][0];
+    // The stackless paper's form and camera, its eye and AO rays together:
+    // 24×9 pixels of 16 eye rays, and 16 AO rays for each eye ray that hits.
+    let words = scene["ao_workload"].as_str().unwrap();
+    for part in ["24×9", "50° horizontal", "16 eye rays", "closest-hit AO", "stratified"] {
+        assert!(words.contains(part), "{words}");
+    }
+    let rays = scene["ao_rays"].as_u64().unwrap();
+    assert!(rays > 24 * 9 * 16 && rays <= 24 * 9 * 16 * 17, "{rays}");
+    let names = |t: &str| -> Vec<String> {
+        scene[t]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|r| r["name"].as_str().unwrap().to_string())
+            .collect()
+    };
+    assert_eq!(names("stackless").len(), 10);
+    assert_eq!(names("dst"), ["bvh", "dst", "dst-similar", "bvh4", "bvh8"]);
+    for t in ["stackless", "dst"] {
+        for row in scene[t].as_array().unwrap() {
+            assert_eq!(row["disagree"], 0, "{row}");
+            assert!(row["gpu_mrays"].as_f64().unwrap() > 0.0, "{row}");
         }
     }
 }

@@ -58,7 +58,7 @@ struct Answer {
 @group(0) @binding(2) var<storage, read_write> answers: array<Answer>;
 // Nine f32 per triangle, a b c, mesh order.
 @group(0) @binding(3) var<storage, read> tris: array<f32>;
-// The sign-terminated leaf list.
+// The sign-terminated leaf list (the wide layouts: their triangle blocks).
 @group(0) @binding(4) var<storage, read> index: array<u32>;
 // The structure's node words, exactly as the CPU stores them.
 @group(0) @binding(5) var<storage, read> nodes: array<u32>;
@@ -97,17 +97,29 @@ fn word_f(i: u32) -> f32 {
     return bitcast<f32>(nodes[i]);
 }
 
-// The watertight test of Woop, Benthin and Wald over [lo, hi], f32 path of
-// Triangle::intersect, operation for operation.
+// The watertight test of mesh triangle `prim` over [lo, hi].
 fn triangle(prim: u32, lo: f32, hi: f32) -> i32 {
     let base = prim * 9u;
+    return triangle_abc(
+        vec3f(tris[base], tris[base + 1u], tris[base + 2u]),
+        vec3f(tris[base + 3u], tris[base + 4u], tris[base + 5u]),
+        vec3f(tris[base + 6u], tris[base + 7u], tris[base + 8u]),
+        lo,
+        hi,
+    );
+}
+
+// The watertight test of Woop, Benthin and Wald of the triangle with
+// vertices pa, pb, pc over [lo, hi], f32 path of Triangle::intersect,
+// operation for operation.
+fn triangle_abc(pa: vec3f, pb: vec3f, pc: vec3f, lo: f32, hi: f32) -> i32 {
     let kx = ray.k & 3u;
     let ky = (ray.k >> 2u) & 3u;
     let kz = (ray.k >> 4u) & 3u;
     let s = ray.shear;
-    let a = vec3f(tris[base], tris[base + 1u], tris[base + 2u]) - ray.o;
-    let b = vec3f(tris[base + 3u], tris[base + 4u], tris[base + 5u]) - ray.o;
-    let c = vec3f(tris[base + 6u], tris[base + 7u], tris[base + 8u]) - ray.o;
+    let a = pa - ray.o;
+    let b = pb - ray.o;
+    let c = pc - ray.o;
     let ax = a[kx] - s.x * a[kz];
     let ay = a[ky] - s.y * a[kz];
     let bx = b[kx] - s.x * b[kz];
@@ -189,34 +201,43 @@ fn cull_distance(t: f32) -> f32 {
     return t + abs(t) * TIE_MARGIN;
 }
 
-// The leaf test (intersect_leaf): true when the traversal ends (any hit
-// found, or the ray deferred to the CPU).
+// Takes triangle `prim`'s test outcome `r` with the leaf test's rules (the
+// tie rule, the cull distance, any hit); true when the traversal ends (any
+// hit found, or the ray deferred to the CPU).
+fn take(prim: u32, r: i32) -> bool {
+    if r == DEFER {
+        deferred = true;
+        return true;
+    }
+    if r == HIT {
+        if ANY {
+            best_t = hit_t;
+            best_prim = prim;
+            best_u = hit_u;
+            best_v = hit_v;
+            return true;
+        }
+        if hit_t < best_t || (hit_t == best_t && prim < best_prim) {
+            tmax = cull_distance(hit_t);
+            best_t = hit_t;
+            best_prim = prim;
+            best_u = hit_u;
+            best_v = hit_v;
+        }
+    }
+    return false;
+}
+
+// The leaf test (intersect_leaf) over the sign-terminated leaf list from
+// position `first`: true when the traversal ends.
 fn leaf(first: u32) -> bool {
     var i = first;
     loop {
         let e = index[i];
         let prim = e & ~LAST;
         n_tris += 1u;
-        let r = triangle(prim, ray.tmin, tmax);
-        if r == DEFER {
-            deferred = true;
+        if take(prim, triangle(prim, ray.tmin, tmax)) {
             return true;
-        }
-        if r == HIT {
-            if ANY {
-                best_t = hit_t;
-                best_prim = prim;
-                best_u = hit_u;
-                best_v = hit_v;
-                return true;
-            }
-            if hit_t < best_t || (hit_t == best_t && prim < best_prim) {
-                tmax = cull_distance(hit_t);
-                best_t = hit_t;
-                best_prim = prim;
-                best_u = hit_u;
-                best_v = hit_v;
-            }
         }
         if (e & LAST) != 0u {
             return false;
@@ -226,9 +247,52 @@ fn leaf(first: u32) -> bool {
     return false;
 }
 
+// The leaf test over the wide layouts' triangle blocks (shared/tri_block.rs)
+// from block `first`, bound to `index`: 40 words per block, the vertex
+// coordinates as nine rows of four lanes (a x, a y, a z, b x, ..., c z),
+// then the lanes' leaf-list entries (LAST on the leaf's last triangle). The
+// lanes are taken in leaf order, as intersect_blocks_with answers: true
+// when the traversal ends.
+fn block_leaf(first: u32) -> bool {
+    var at = first * 40u;
+    loop {
+        for (var l = 0u; l < 4u; l++) {
+            let e = index[at + 36u + l];
+            let prim = e & ~LAST;
+            let v = at + l;
+            n_tris += 1u;
+            let r = triangle_abc(
+                vec3f(bitcast<f32>(index[v]), bitcast<f32>(index[v + 4u]), bitcast<f32>(index[v + 8u])),
+                vec3f(bitcast<f32>(index[v + 12u]), bitcast<f32>(index[v + 16u]), bitcast<f32>(index[v + 20u])),
+                vec3f(bitcast<f32>(index[v + 24u]), bitcast<f32>(index[v + 28u]), bitcast<f32>(index[v + 32u])),
+                ray.tmin,
+                tmax,
+            );
+            if take(prim, r) {
+                return true;
+            }
+            if (e & LAST) != 0u {
+                return false;
+            }
+        }
+        at += 40u;
+    }
+    return false;
+}
+
 // Loads ray `id` and resets the state; true if the ray enters the scene box
 // (6 plane tests either way), as shared/leaf.rs's `enter`.
 fn start(id: u32) -> bool {
+    load(id);
+    if params.empty != 0u {
+        return false;
+    }
+    n_planes = 6u;
+    return box_test(params.lo.xyz, params.hi.xyz, ray.tmin, ray.tmax) != inf();
+}
+
+// Loads ray `id` and resets the state, counters at zero.
+fn load(id: u32) {
     ray = rays[id];
     tmax = ray.tmax;
     best_t = inf();
@@ -236,14 +300,9 @@ fn start(id: u32) -> bool {
     best_u = 0.0;
     best_v = 0.0;
     n_nodes = 0u;
-    n_planes = 6u;
+    n_planes = 0u;
     n_tris = 0u;
     deferred = false;
-    if params.empty != 0u {
-        n_planes = 0u;
-        return false;
-    }
-    return box_test(params.lo.xyz, params.hi.xyz, ray.tmin, ray.tmax) != inf();
 }
 
 fn finish(id: u32) {

@@ -213,6 +213,12 @@ impl<const W: usize> WideBvh<W> {
         self.depth
     }
 
+    /// The root's reference: node 0, or (bit 31 set) the first block of a
+    /// tree that is one leaf.
+    pub fn root(&self) -> u32 {
+        self.root
+    }
+
     /// SAH cost of the wide tree (node cost 1, triangle cost 0.3, areas
     /// relative to the root's), as the collapse minimised it.
     pub fn sah_cost(&self) -> f64 {
