@@ -289,11 +289,7 @@ impl<'a> GpuAccel<'a> {
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some(up.kernel.file()),
-            source: wgpu::ShaderSource::Wgsl(
-                up.kernel
-                    .source(up.stack, gpu.has_f64())
-                    .into(),
-            ),
+            source: wgpu::ShaderSource::Wgsl(up.kernel.source(up.stack, gpu.has_f64()).into()),
         });
         let pipeline = |any: bool| {
             device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {

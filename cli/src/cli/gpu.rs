@@ -321,7 +321,10 @@ pub fn run_bench(a: GpuBenchArgs) -> Result<()> {
             let preset = crate::bench::stackless::Preset::Paper;
             preset.apply_view(&mut view);
             let (pw, ph) = preset.size(&view);
-            let (w, h) = (a.width.map_or(pw, |w| w as usize), a.height.map_or(ph, |h| h as usize));
+            let (w, h) = (
+                a.width.map_or(pw, |w| w as usize),
+                a.height.map_or(ph, |h| h as usize),
+            );
             let radius = if view.is_stackless_chess() {
                 raytree::scene::Scene::STACKLESS_CHESS_AO_RADIUS
             } else {

@@ -115,8 +115,20 @@ fn bench_gpu_paper_preset_runs_both_papers_workloads() {
     let dir = tempfile::tempdir().unwrap();
     let out = raytree(
         &[
-            "bench", "gpu", "--preset", "paper", "-s", "chess:2000", "--width", "24", "--height",
-            "9", "--repeats", "1", "--json", "g.json",
+            "bench",
+            "gpu",
+            "--preset",
+            "paper",
+            "-s",
+            "chess:2000",
+            "--width",
+            "24",
+            "--height",
+            "9",
+            "--repeats",
+            "1",
+            "--json",
+            "g.json",
         ],
         dir.path(),
     );
@@ -129,14 +141,19 @@ fn bench_gpu_paper_preset_runs_both_papers_workloads() {
         panic!("{err}");
     }
     let json: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.path().join("g.json")).unwrap())
-            .unwrap();
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("g.json")).unwrap()).unwrap();
     assert_eq!(json["preset"], "paper");
     let scene = &json["scenes"][0];
     // The stackless paper's form and camera, its eye and AO rays together:
     // 24×9 pixels of 16 eye rays, and 16 AO rays for each eye ray that hits.
     let words = scene["ao_workload"].as_str().unwrap();
-    for part in ["24×9", "50° horizontal", "16 eye rays", "closest-hit AO", "stratified"] {
+    for part in [
+        "24×9",
+        "50° horizontal",
+        "16 eye rays",
+        "closest-hit AO",
+        "stratified",
+    ] {
         assert!(words.contains(part), "{words}");
     }
     let rays = scene["ao_rays"].as_u64().unwrap();

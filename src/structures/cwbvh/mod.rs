@@ -33,7 +33,7 @@ use super::shared::MAX_STACK_DEPTH;
 use super::wide::collapse;
 use super::wide::traverse::{self, gather, Entered, Isa, NodeRay, Portable, WideTree};
 use super::Accel;
-use crate::bvh::{Bvh, NodeKind};
+use crate::bvh::Bvh;
 use crate::error::{Error, Result};
 use crate::geometry::{Aabb, Hit, Ray, Triangle};
 use crate::stats::Stats;
@@ -237,11 +237,9 @@ impl CwBvh {
             leaves: 0,
             sah_cost: plan.cost,
         };
-        let root = &bvh.nodes[crate::bvh::ROOT as usize];
-        if root.is_leaf() {
-            let prims = bvh.leaf_prims(root);
+        if let Some(prims) = plan.leaf(bvh, crate::bvh::ROOT) {
             if !prims.is_empty() {
-                w.root = LEAF | w.push_leaf(prims, crate::bvh::ROOT)?.0;
+                w.root = LEAF | w.push_leaf(&prims, crate::bvh::ROOT)?.0;
             }
             return Ok(w);
         }
@@ -280,13 +278,12 @@ impl CwBvh {
         depth: u32,
     ) -> Result<()> {
         self.depth = self.depth.max(depth);
-        let children: Vec<u32> = plan
+        // Each child with its triangles if it is a leaf; empty leaves left out.
+        let children: Vec<(u32, Option<Vec<u32>>)> = plan
             .children(bvh, id)
             .into_iter()
-            .filter(|&c| {
-                let n = &bvh.nodes[c as usize];
-                !n.is_leaf() || !bvh.leaf_prims(n).is_empty()
-            })
+            .map(|c| (c, plan.leaf(bvh, c)))
+            .filter(|(_, leaf)| leaf.as_ref().is_none_or(|p| !p.is_empty()))
             .collect();
         debug_assert!(children.len() <= WIDTH);
         let bounds = bvh.nodes[id as usize].bounds;
@@ -305,15 +302,15 @@ impl CwBvh {
         node.block_base = self.blocks.len() as u32;
         let (p, s) = (node.origin(), node.scale());
         let mut inner = Vec::new();
-        for (k, &c) in children.iter().enumerate() {
+        for (k, (c, leaf)) in children.into_iter().enumerate() {
             let cn = &bvh.nodes[c as usize];
             let (clo, chi) = (cn.bounds.min.to_array(), cn.bounds.max.to_array());
             for a in 0..3 {
                 node.q_lo[a][k] = quantize_down(p[a], s[a], clo[a]);
                 node.q_hi[a][k] = quantize_up(p[a], s[a], chi[a]);
             }
-            if let NodeKind::Leaf { .. } = cn.kind {
-                let (first, count) = self.push_leaf(bvh.leaf_prims(cn), c)?;
+            if let Some(prims) = leaf {
+                let (first, count) = self.push_leaf(&prims, c)?;
                 let offset = (first - node.block_base) as usize;
                 if offset + count > MAX_NODE_BLOCKS {
                     return Err(Error::Limit(format!(
