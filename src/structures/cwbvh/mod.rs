@@ -416,12 +416,12 @@ impl WideTree<WIDTH> for CwBvh {
         &self.triangles
     }
     #[inline(always)]
-    fn enter<I: Isa>(&self, node: u32, r: &NodeRay, tmax: f32) -> (Entered<WIDTH>, u32) {
+    fn enter<I: Isa>(&self, node: u32, r: &NodeRay, tmax: f32, e: &mut Entered<WIDTH>) -> u32 {
         let n = &self.nodes[node as usize];
         let valid = n.valid();
         let (d, mask) = I::test::<WIDTH>(r, &n.planes_on::<I>(), tmax);
-        let e = gather(&d, |k| n.reference(k), mask & valid);
-        (e, 6 * valid.count_ones())
+        gather(&d, |k| n.reference(k), mask & valid, e);
+        6 * valid.count_ones()
     }
     fn canonical_id(&self, r: u32) -> u32 {
         traverse::canonical_id(&self.node_ids, &self.leaf_ids, r)

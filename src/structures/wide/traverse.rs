@@ -54,6 +54,22 @@ pub trait Isa {
     /// on every lane, bit for bit.
     fn test<const W: usize>(r: &NodeRay, planes: &[[f32; W]; 6], tmax: f32) -> ([f32; W], u32);
 
+    /// [`Isa::test`] of a node's `W` children, and the lanes entered
+    /// gathered into `e` in lane order (entry distance, `children[k]`), as
+    /// [`gather`] does: the x86-64 paths compress the lanes with vector
+    /// permutes rather than one lane at a time.
+    #[inline(always)]
+    fn enter<const W: usize>(
+        r: &NodeRay,
+        planes: &[[f32; W]; 6],
+        children: &[u32; W],
+        tmax: f32,
+        e: &mut Entered<W>,
+    ) {
+        let (d, mask) = Self::test::<W>(r, planes, tmax);
+        gather(&d, |k| children[k], mask, e);
+    }
+
     /// `p + q·s` for eight quantized planes `q` and a power-of-two scale
     /// `s` (`q·s` is exact, so the one rounding is the addition's, on every
     /// path): a `cwbvh` node's plane row.
@@ -72,26 +88,44 @@ pub trait WideTree<const W: usize> {
     fn blocks(&self) -> &[TriBlock];
     /// The mesh.
     fn triangles(&self) -> &[Triangle];
-    /// The children of inner node `node` that the ray enters, in lane
-    /// order, and the planes tested (for the statistics).
-    fn enter<I: Isa>(&self, node: u32, r: &NodeRay, tmax: f32) -> (Entered<W>, u32);
+    /// Writes into `e` the children of inner node `node` that the ray
+    /// enters, in lane order; returns the planes tested (for the
+    /// statistics). `e` is the caller's, reused from node to node: returning
+    /// it by value cost a copy whose wide load waited on the gather's
+    /// narrow stores (a failed store forward) at every node.
+    fn enter<I: Isa>(&self, node: u32, r: &NodeRay, tmax: f32, e: &mut Entered<W>) -> u32;
     /// The canonical BVH id of reference `r` (visit logs).
     fn canonical_id(&self, r: u32) -> u32;
 }
 
-/// Gathers the lanes of `mask` (entry distances `d`, the reference of lane
-/// `k` given by `refs(k)`, asked only for the lanes gathered) in lane order.
+impl<const W: usize> Entered<W> {
+    /// No child entered.
+    pub fn new() -> Self {
+        Entered {
+            dist: [0.0; W],
+            refs: [0; W],
+            count: 0,
+        }
+    }
+}
+
+impl<const W: usize> Default for Entered<W> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// Gathers into `e` the lanes of `mask` (entry distances `d`, the reference
+/// of lane `k` given by `refs(k)`, asked only for the lanes gathered) in
+/// lane order.
 #[inline(always)]
 pub fn gather<const W: usize>(
     d: &[f32; W],
     refs: impl Fn(usize) -> u32,
     mut mask: u32,
-) -> Entered<W> {
-    let mut e = Entered {
-        dist: [0.0; W],
-        refs: [0; W],
-        count: 0,
-    };
+    e: &mut Entered<W>,
+) {
+    e.count = 0;
     // `mask` has at most W bits below bit W (W a power of two), so the
     // masked indices are the indices, with no bounds checks.
     debug_assert!(W.is_power_of_two() && mask < 1 << W);
@@ -102,7 +136,6 @@ pub fn gather<const W: usize>(
         e.refs[e.count & (W - 1)] = refs(k);
         e.count += 1;
     }
-    e
 }
 
 /// The portable box test: plain loops over the lanes, which the compiler
@@ -151,8 +184,92 @@ mod x86 {
     //! which keep the running bound on a NaN distance as the portable test
     //! does; no multiply-add is fused, so every lane's distance is the
     //! portable test's bit for bit.
-    use super::{Isa, NodeRay, ROBUST_WIDENING};
+    use super::{Entered, Isa, NodeRay, ROBUST_WIDENING};
     use std::arch::x86_64::*;
+
+    /// For each mask of eight lanes, the lanes set, in order, as 3-bit
+    /// indices packed from bit 0 (AVX2's compress by permutation).
+    const COMPRESS8: [u32; 256] = {
+        let mut table = [0u32; 256];
+        let mut mask = 0;
+        while mask < 256 {
+            let (mut packed, mut at, mut k) = (0u32, 0, 0);
+            while k < 8 {
+                if mask & (1 << k) != 0 {
+                    packed |= (k as u32) << (3 * at);
+                    at += 1;
+                }
+                k += 1;
+            }
+            table[mask] = packed;
+            mask += 1;
+        }
+        table
+    };
+
+    /// Stores the eight lanes of `d` and `refs` selected by permutation
+    /// `idx` into `e`, `count` of them.
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    fn store8(e: &mut Entered<8>, d: __m256, refs: __m256i, count: u32) {
+        // SAFETY: `e.dist` and `e.refs` hold eight lanes of four bytes.
+        unsafe {
+            _mm256_storeu_ps(e.dist.as_mut_ptr(), d);
+            _mm256_storeu_si256(e.refs.as_mut_ptr() as *mut __m256i, refs);
+        }
+        e.count = count as usize;
+    }
+
+    /// The entered lanes of an 8-wide node compressed by a permutation
+    /// from [`COMPRESS8`] (AVX2).
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    fn enter8_avx2(
+        r: &NodeRay,
+        p: [*const f32; 6],
+        children: *const u32,
+        tmax: f32,
+        e: &mut Entered<8>,
+    ) {
+        let (n, f) = test8_avx2(r, p, tmax);
+        let mask = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(n, f)) as u32;
+        let packed = _mm256_set1_epi32(COMPRESS8[mask as usize & 0xff] as i32);
+        let idx = _mm256_and_si256(
+            _mm256_srlv_epi32(packed, _mm256_setr_epi32(0, 3, 6, 9, 12, 15, 18, 21)),
+            _mm256_set1_epi32(7),
+        );
+        // SAFETY: `children` points at eight lanes of four bytes.
+        let c = unsafe { _mm256_loadu_si256(children as *const __m256i) };
+        store8(
+            e,
+            _mm256_permutevar8x32_ps(n, idx),
+            _mm256_permutevar8x32_epi32(c, idx),
+            mask.count_ones(),
+        );
+    }
+
+    /// The entered lanes of an 8-wide node compressed by AVX-512's
+    /// `vcompress`.
+    #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
+    #[inline]
+    fn enter8_avx512(
+        r: &NodeRay,
+        p: [*const f32; 6],
+        children: *const u32,
+        tmax: f32,
+        e: &mut Entered<8>,
+    ) {
+        let (n, f) = test8_avx2(r, p, tmax);
+        let k = _mm256_cmp_ps_mask::<_CMP_LE_OQ>(n, f);
+        // SAFETY: `children` points at eight lanes of four bytes.
+        let c = unsafe { _mm256_loadu_si256(children as *const __m256i) };
+        store8(
+            e,
+            _mm256_maskz_compress_ps(k, n),
+            _mm256_maskz_compress_epi32(k, c),
+            (k as u32).count_ones(),
+        );
+    }
 
     /// SSE4.1: four lanes per instruction.
     pub struct Sse41;
@@ -325,6 +442,31 @@ mod x86 {
             unsafe { test_avx2(r, planes, tmax) }
         }
         #[inline(always)]
+        fn enter<const W: usize>(
+            r: &NodeRay,
+            planes: &[[f32; W]; 6],
+            children: &[u32; W],
+            tmax: f32,
+            e: &mut Entered<W>,
+        ) {
+            if W != 8 {
+                let (d, mask) = Self::test::<W>(r, planes, tmax);
+                return super::gather(&d, |k| children[k], mask, e);
+            }
+            let p = planes.each_ref().map(|row| row.as_ptr());
+            // SAFETY: as `test`; each plane row and `children` hold W = 8
+            // lanes, and `Entered<W>` is `Entered<8>` (W = 8).
+            unsafe {
+                enter8_avx2(
+                    r,
+                    p,
+                    children.as_ptr(),
+                    tmax,
+                    &mut *(e as *mut Entered<W> as *mut Entered<8>),
+                )
+            }
+        }
+        #[inline(always)]
         fn dequantize8(p: f32, s: f32, q: &[u8; 8]) -> [f32; 8] {
             // SAFETY: as above.
             unsafe { dequantize8_avx2(p, s, q) }
@@ -337,6 +479,31 @@ mod x86 {
             // SAFETY: this path runs only inside `trace_avx512`, which runs
             // only where the processor has AVX-512 F, VL, DQ and BW.
             unsafe { test_avx512(r, planes, tmax) }
+        }
+        #[inline(always)]
+        fn enter<const W: usize>(
+            r: &NodeRay,
+            planes: &[[f32; W]; 6],
+            children: &[u32; W],
+            tmax: f32,
+            e: &mut Entered<W>,
+        ) {
+            if W != 8 {
+                let (d, mask) = Self::test::<W>(r, planes, tmax);
+                return super::gather(&d, |k| children[k], mask, e);
+            }
+            let p = planes.each_ref().map(|row| row.as_ptr());
+            // SAFETY: as `test`; each plane row and `children` hold W = 8
+            // lanes, and `Entered<W>` is `Entered<8>` (W = 8).
+            unsafe {
+                enter8_avx512(
+                    r,
+                    p,
+                    children.as_ptr(),
+                    tmax,
+                    &mut *(e as *mut Entered<W> as *mut Entered<8>),
+                )
+            }
         }
         #[inline(always)]
         fn dequantize8(p: f32, s: f32, q: &[u8; 8]) -> [f32; 8] {
@@ -486,6 +653,7 @@ fn trace_kernel<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool, I: Is
     let mut best: Option<Hit> = None;
     // Not cleared per ray (an `ArrayVec` leaves its slots uninitialized).
     let mut stack = ArrayVec::<(u32, f32), STACK>::new();
+    let mut e = Entered::<W>::new();
     let mut node = w.root();
     'visit: loop {
         tally.nodes += 1;
@@ -507,8 +675,7 @@ fn trace_kernel<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool, I: Is
                 break;
             }
         } else {
-            let (mut e, planes) = w.enter::<I>(node, &r, tmax);
-            tally.planes += planes;
+            tally.planes += w.enter::<I>(node, &r, tmax, &mut e);
             let m = e.count;
             if m == 1 {
                 node = e.refs[0];
@@ -586,13 +753,10 @@ impl<const W: usize> WideTree<W> for super::WideBvh<W> {
         &self.triangles
     }
     #[inline(always)]
-    fn enter<I: Isa>(&self, node: u32, r: &NodeRay, tmax: f32) -> (Entered<W>, u32) {
+    fn enter<I: Isa>(&self, node: u32, r: &NodeRay, tmax: f32, e: &mut Entered<W>) -> u32 {
         let n: &WideNode<W> = &self.nodes[node as usize];
-        let (d, mask) = I::test::<W>(r, &n.planes, tmax);
-        (
-            gather(&d, |k| n.children[k], mask),
-            6 * n.child_count() as u32,
-        )
+        I::enter::<W>(r, &n.planes, &n.children, tmax, e);
+        6 * n.child_count() as u32
     }
     fn canonical_id(&self, r: u32) -> u32 {
         canonical_id(&self.node_ids, &self.leaf_ids, r)
