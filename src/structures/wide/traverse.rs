@@ -187,6 +187,37 @@ mod x86 {
     use super::{Entered, Isa, NodeRay, ROBUST_WIDENING};
     use std::arch::x86_64::*;
 
+    /// A node's six plane rows: row `k` starts `k·stride` floats after
+    /// `base`. Found by arithmetic from the ray's row numbers, so that no
+    /// table of row pointers is stored and loaded again at every node.
+    #[derive(Clone, Copy)]
+    struct Rows {
+        base: *const f32,
+        stride: usize,
+    }
+
+    impl Rows {
+        /// The rows of `planes`, from lane `from` (0, or 4 for the second
+        /// half of an 8-wide node's rows on the 4-lane path).
+        #[inline(always)]
+        fn of<const W: usize>(planes: &[[f32; W]; 6], from: usize) -> Rows {
+            debug_assert!(from + 4 <= W);
+            Rows {
+                // SAFETY: `from + 4 ≤ W`, within the first row.
+                base: unsafe { (planes.as_ptr() as *const f32).add(from) },
+                stride: W,
+            }
+        }
+
+        /// Plane row `k` (< 6), from the lane the rows were made at.
+        #[inline(always)]
+        fn row(self, k: usize) -> *const f32 {
+            debug_assert!(k < 6);
+            // SAFETY: `k < 6` rows of `stride` floats lie in the node.
+            unsafe { self.base.add(k * self.stride) }
+        }
+    }
+
     /// For each mask of eight lanes, the lanes set, in order, as 3-bit
     /// indices packed from bit 0 (AVX2's compress by permutation).
     const COMPRESS8: [u32; 256] = {
@@ -224,13 +255,7 @@ mod x86 {
     /// from [`COMPRESS8`] (AVX2).
     #[target_feature(enable = "avx2,fma")]
     #[inline]
-    fn enter8_avx2(
-        r: &NodeRay,
-        p: [*const f32; 6],
-        children: *const u32,
-        tmax: f32,
-        e: &mut Entered<8>,
-    ) {
+    fn enter8_avx2(r: &NodeRay, p: Rows, children: *const u32, tmax: f32, e: &mut Entered<8>) {
         let (n, f) = test8_avx2(r, p, tmax);
         let mask = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(n, f)) as u32;
         let packed = _mm256_set1_epi32(COMPRESS8[mask as usize & 0xff] as i32);
@@ -252,13 +277,7 @@ mod x86 {
     /// `vcompress`.
     #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
     #[inline]
-    fn enter8_avx512(
-        r: &NodeRay,
-        p: [*const f32; 6],
-        children: *const u32,
-        tmax: f32,
-        e: &mut Entered<8>,
-    ) {
+    fn enter8_avx512(r: &NodeRay, p: Rows, children: *const u32, tmax: f32, e: &mut Entered<8>) {
         let (n, f) = test8_avx2(r, p, tmax);
         let k = _mm256_cmp_ps_mask::<_CMP_LE_OQ>(n, f);
         // SAFETY: `children` points at eight lanes of four bytes.
@@ -280,15 +299,20 @@ mod x86 {
 
     #[target_feature(enable = "sse4.1")]
     #[inline]
-    fn test4_sse(r: &NodeRay, p: [*const f32; 6], tmax: f32) -> (__m128, u32) {
+    fn test4_sse(r: &NodeRay, p: Rows, tmax: f32) -> (__m128, u32) {
         let mut tn = _mm_set1_ps(r.tmin);
         let mut tf = _mm_set1_ps(f32::INFINITY);
         for a in 0..3 {
             let o = _mm_set1_ps(r.org[a]);
             let inv = _mm_set1_ps(r.inv[a]);
-            // SAFETY: `p[row]` points at four readable floats (a plane row
-            // of a node or half of one), as `test` below makes them.
-            let (lo, hi) = unsafe { (_mm_loadu_ps(p[r.near[a]]), _mm_loadu_ps(p[r.far[a]])) };
+            // SAFETY: `p.row(k)` points at four readable floats (a plane
+            // row of a node or half of one), as `Rows::of` makes them.
+            let (lo, hi) = unsafe {
+                (
+                    _mm_loadu_ps(p.row(r.near[a])),
+                    _mm_loadu_ps(p.row(r.far[a])),
+                )
+            };
             tn = _mm_max_ps(_mm_mul_ps(_mm_sub_ps(lo, o), inv), tn);
             tf = _mm_min_ps(_mm_mul_ps(_mm_sub_ps(hi, o), inv), tf);
         }
@@ -303,14 +327,19 @@ mod x86 {
 
     #[target_feature(enable = "avx2,fma")]
     #[inline]
-    fn test8_avx2(r: &NodeRay, p: [*const f32; 6], tmax: f32) -> (__m256, __m256) {
+    fn test8_avx2(r: &NodeRay, p: Rows, tmax: f32) -> (__m256, __m256) {
         let mut tn = _mm256_set1_ps(r.tmin);
         let mut tf = _mm256_set1_ps(f32::INFINITY);
         for a in 0..3 {
             let o = _mm256_set1_ps(r.org[a]);
             let inv = _mm256_set1_ps(r.inv[a]);
-            // SAFETY: `p[row]` points at a plane row of eight floats.
-            let (lo, hi) = unsafe { (_mm256_loadu_ps(p[r.near[a]]), _mm256_loadu_ps(p[r.far[a]])) };
+            // SAFETY: `p.row(k)` points at a plane row of eight floats.
+            let (lo, hi) = unsafe {
+                (
+                    _mm256_loadu_ps(p.row(r.near[a])),
+                    _mm256_loadu_ps(p.row(r.far[a])),
+                )
+            };
             tn = _mm256_max_ps(_mm256_mul_ps(_mm256_sub_ps(lo, o), inv), tn);
             tf = _mm256_min_ps(_mm256_mul_ps(_mm256_sub_ps(hi, o), inv), tf);
         }
@@ -329,7 +358,7 @@ mod x86 {
         planes: &[[f32; W]; 6],
         tmax: f32,
     ) -> ([f32; W], u32) {
-        let p = planes.each_ref().map(|row| row.as_ptr());
+        let p = Rows::of(planes, 0);
         let mut d = [0.0; W];
         if W == 8 {
             let (n, f) = test8_avx2(r, p, tmax);
@@ -355,7 +384,7 @@ mod x86 {
         planes: &[[f32; W]; 6],
         tmax: f32,
     ) -> ([f32; W], u32) {
-        let p = planes.each_ref().map(|row| row.as_ptr());
+        let p = Rows::of(planes, 0);
         let mut d = [0.0; W];
         if W == 8 {
             let (n, f) = test8_avx2(r, p, tmax);
@@ -377,11 +406,9 @@ mod x86 {
         let mut d = [0.0; W];
         let mut mask = 0;
         for half in 0..W / 4 {
-            // SAFETY: each row holds W = 4·(W/4) floats; this half's four
-            // start at `4·half`.
-            let p = planes
-                .each_ref()
-                .map(|row| unsafe { row.as_ptr().add(4 * half) });
+            // Each row holds W = 4·(W/4) floats; this half's four start at
+            // `4·half`.
+            let p = Rows::of(planes, 4 * half);
             let (n, m) = test4_sse(r, p, tmax);
             // SAFETY: `d` holds W floats; this half's four start at `4·half`.
             unsafe { _mm_storeu_ps(d.as_mut_ptr().add(4 * half), n) };
@@ -453,7 +480,7 @@ mod x86 {
                 let (d, mask) = Self::test::<W>(r, planes, tmax);
                 return super::gather(&d, |k| children[k], mask, e);
             }
-            let p = planes.each_ref().map(|row| row.as_ptr());
+            let p = Rows::of(planes, 0);
             // SAFETY: as `test`; each plane row and `children` hold W = 8
             // lanes, and `Entered<W>` is `Entered<8>` (W = 8).
             unsafe {
@@ -492,7 +519,7 @@ mod x86 {
                 let (d, mask) = Self::test::<W>(r, planes, tmax);
                 return super::gather(&d, |k| children[k], mask, e);
             }
-            let p = planes.each_ref().map(|row| row.as_ptr());
+            let p = Rows::of(planes, 0);
             // SAFETY: as `test`; each plane row and `children` hold W = 8
             // lanes, and `Entered<W>` is `Entered<8>` (W = 8).
             unsafe {
