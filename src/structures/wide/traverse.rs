@@ -447,6 +447,26 @@ mod x86 {
         out
     }
 
+    /// [`Isa::enter`] through `enter8` (a vector compress of eight lanes)
+    /// where `W` is 8, else [`Isa::test`] and [`super::gather`].
+    #[inline(always)]
+    fn enter_by<I: Isa, const W: usize>(
+        r: &NodeRay,
+        planes: &[[f32; W]; 6],
+        children: &[u32; W],
+        tmax: f32,
+        e: &mut Entered<W>,
+        enter8: impl FnOnce(Rows, *const u32, &mut Entered<8>),
+    ) {
+        if W != 8 {
+            let (d, mask) = I::test::<W>(r, planes, tmax);
+            return super::gather(&d, |k| children[k], mask, e);
+        }
+        // SAFETY: W = 8, so `Entered<W>` is `Entered<8>`.
+        let e8 = unsafe { &mut *(e as *mut Entered<W> as *mut Entered<8>) };
+        enter8(Rows::of(planes, 0), children.as_ptr(), e8);
+    }
+
     impl Isa for Sse41 {
         #[inline(always)]
         fn test<const W: usize>(r: &NodeRay, planes: &[[f32; W]; 6], tmax: f32) -> ([f32; W], u32) {
@@ -476,22 +496,11 @@ mod x86 {
             tmax: f32,
             e: &mut Entered<W>,
         ) {
-            if W != 8 {
-                let (d, mask) = Self::test::<W>(r, planes, tmax);
-                return super::gather(&d, |k| children[k], mask, e);
-            }
-            let p = Rows::of(planes, 0);
-            // SAFETY: as `test`; each plane row and `children` hold W = 8
-            // lanes, and `Entered<W>` is `Entered<8>` (W = 8).
-            unsafe {
-                enter8_avx2(
-                    r,
-                    p,
-                    children.as_ptr(),
-                    tmax,
-                    &mut *(e as *mut Entered<W> as *mut Entered<8>),
-                )
-            }
+            enter_by::<Self, W>(r, planes, children, tmax, e, |p, c, e| {
+                // SAFETY: as `test`, the processor has AVX2 and FMA; `p` and `c`
+                // point at a node's eight-lane rows and references.
+                unsafe { enter8_avx2(r, p, c, tmax, e) }
+            })
         }
         #[inline(always)]
         fn dequantize8(p: f32, s: f32, q: &[u8; 8]) -> [f32; 8] {
@@ -515,22 +524,11 @@ mod x86 {
             tmax: f32,
             e: &mut Entered<W>,
         ) {
-            if W != 8 {
-                let (d, mask) = Self::test::<W>(r, planes, tmax);
-                return super::gather(&d, |k| children[k], mask, e);
-            }
-            let p = Rows::of(planes, 0);
-            // SAFETY: as `test`; each plane row and `children` hold W = 8
-            // lanes, and `Entered<W>` is `Entered<8>` (W = 8).
-            unsafe {
-                enter8_avx512(
-                    r,
-                    p,
-                    children.as_ptr(),
-                    tmax,
-                    &mut *(e as *mut Entered<W> as *mut Entered<8>),
-                )
-            }
+            enter_by::<Self, W>(r, planes, children, tmax, e, |p, c, e| {
+                // SAFETY: as `test`, the processor has AVX-512 F, VL, DQ and BW; `p` and `c`
+                // point at a node's eight-lane rows and references.
+                unsafe { enter8_avx512(r, p, c, tmax, e) }
+            })
         }
         #[inline(always)]
         fn dequantize8(p: f32, s: f32, q: &[u8; 8]) -> [f32; 8] {
