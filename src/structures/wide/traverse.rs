@@ -497,8 +497,8 @@ mod x86 {
             e: &mut Entered<W>,
         ) {
             enter_by::<Self, W>(r, planes, children, tmax, e, |p, c, e| {
-                // SAFETY: as `test`, the processor has AVX2 and FMA; `p` and `c`
-                // point at a node's eight-lane rows and references.
+                // SAFETY: as `test`, the processor has AVX2 and FMA; `p`
+                // and `c` point at a node's eight-lane rows and references.
                 unsafe { enter8_avx2(r, p, c, tmax, e) }
             })
         }
@@ -525,8 +525,9 @@ mod x86 {
             e: &mut Entered<W>,
         ) {
             enter_by::<Self, W>(r, planes, children, tmax, e, |p, c, e| {
-                // SAFETY: as `test`, the processor has AVX-512 F, VL, DQ and BW; `p` and `c`
-                // point at a node's eight-lane rows and references.
+                // SAFETY: as `test`, the processor has AVX-512 F, VL, DQ
+                // and BW; `p` and `c` point at a node's eight-lane rows and
+                // references.
                 unsafe { enter8_avx512(r, p, c, tmax, e) }
             })
         }
