@@ -88,7 +88,7 @@ struct Upload<'b> {
 /// rows of `W` floats, `W` child references, zeros in the padding to 64
 /// bytes.
 fn wide_words<const W: usize>(w: &raytree::structures::WideBvh<W>) -> Vec<u32> {
-    let stride = std::mem::size_of::<raytree::structures::wide::WideNode<W>>() / 4;
+    let stride = crate::kernel::wide_node_words(W as u32);
     let mut words = Vec::with_capacity(w.nodes().len() * stride);
     for n in w.nodes() {
         let start = words.len();
@@ -176,11 +176,13 @@ fn upload_of(built: &Built) -> Result<Upload<'_>> {
         B::Bvh4(w) => wide(w),
         B::Bvh8(w) => wide(w),
         other => {
+            let (structure, traversal, _) = other.kind();
             return Err(GpuError::Unsupported(format!(
-                "the {} structure ({})",
-                other.kind().0.name(),
+                "the {} structure with the {} traversal ({})",
+                structure.name(),
+                traversal.name(),
                 "GPU kernels exist for bvh with stack, sparse, implicit-b, hapala and laine-k, for dst and dst-similar, and for bvh4 and bvh8"
-            )))
+            )));
         }
     })
 }

@@ -78,10 +78,9 @@ impl Kernel {
             Kernel::Laine(k) => LAINE.replace("SHORT_K", &format!("{k}u")),
             Kernel::ImplicitB => IMPLICIT_B.to_string(),
             Kernel::Dst => DST.to_string(),
-            // A `WideNode<W>`: 7·W words padded to 64 bytes.
             Kernel::Wide(w) => format!(
                 "const WIDTH: u32 = {w}u;\nconst NODE_WORDS: u32 = {}u;\n{WIDE}",
-                (7 * w).next_multiple_of(16)
+                wide_node_words(*w)
             ),
         };
         let consts = [
@@ -104,6 +103,17 @@ impl Kernel {
             "{consts}const STACK_SIZE: u32 = {stack}u;\n{prelude}\n{}",
             body.replace("STACK_SIZE", &stack.to_string())
         )
+    }
+}
+
+/// Words of a `WideNode` record of width `w` (4 or 8), padding included:
+/// the stride of the nodes uploaded.
+pub(crate) fn wide_node_words(w: u32) -> usize {
+    use raytree::structures::wide::WideNode;
+    match w {
+        4 => std::mem::size_of::<WideNode<4>>() / 4,
+        8 => std::mem::size_of::<WideNode<8>>() / 4,
+        _ => unreachable!("wide BVHs are 4 or 8 wide"),
     }
 }
 

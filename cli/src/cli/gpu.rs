@@ -236,6 +236,18 @@ pub fn run_bench(a: GpuBenchArgs) -> Result<()> {
     use raytree_gpu::{GpuAccel, Query};
     use std::sync::Arc;
     let gpu = open_gpu()?;
+    let paper = a.preset == GpuPreset::Paper;
+    let specs = match (a.scenes.is_empty(), paper) {
+        (false, _) => a.scenes.clone(),
+        (true, false) => vec!["chess".to_string()],
+        (true, true) => vec!["chess".to_string(), "hairball:2.8M".to_string()],
+    };
+    // Every scene loaded before any work, so that a bad name fails at once
+    // rather than after the scenes before it were measured.
+    let scenes = specs
+        .iter()
+        .map(|spec| super::common::load_spec(spec))
+        .collect::<Result<Vec<_>>>()?;
     say!("adapter    {}", gpu.describe());
     say!(
         "limits     {}",
@@ -256,23 +268,17 @@ pub fn run_bench(a: GpuBenchArgs) -> Result<()> {
     if gpu.is_software() {
         say!("note       a software adapter: these times check the kernels, they do not measure a GPU");
     }
-    let paper = a.preset == GpuPreset::Paper;
-    let scenes = match (a.scenes.is_empty(), paper) {
-        (false, _) => a.scenes.clone(),
-        (true, false) => vec!["chess".to_string()],
-        (true, true) => vec!["chess".to_string(), "hairball:2.8M".to_string()],
-    };
-    let size = |default: u32| {
+    // The image size: the options', else the workload's.
+    let size = |w: usize, h: usize| {
         (
-            a.width.unwrap_or(default) as usize,
-            a.height.unwrap_or(default) as usize,
+            a.width.map_or(w, |w| w as usize),
+            a.height.map_or(h, |h| h as usize),
         )
     };
     let repeats = a.repeats as usize;
     let err = |e: raytree_gpu::GpuError| Error::Invalid(e.to_string());
     let mut results = Vec::new();
-    for spec in &scenes {
-        let scene = super::common::load_spec(spec)?;
+    for scene in &scenes {
         let tris = scene.triangles.clone();
         // Measures one built structure on `rays` on both devices.
         let measure = |name: String, built: &Built, rays: &[Ray]| -> Result<GpuRow> {
@@ -321,10 +327,7 @@ pub fn run_bench(a: GpuBenchArgs) -> Result<()> {
             let preset = crate::bench::stackless::Preset::Paper;
             preset.apply_view(&mut view);
             let (pw, ph) = preset.size(&view);
-            let (w, h) = (
-                a.width.map_or(pw, |w| w as usize),
-                a.height.map_or(ph, |h| h as usize),
-            );
+            let (w, h) = size(pw, ph);
             let radius = if view.is_stackless_chess() {
                 raytree::scene::Scene::STACKLESS_CHESS_AO_RADIUS
             } else {
@@ -348,10 +351,10 @@ pub fn run_bench(a: GpuBenchArgs) -> Result<()> {
             );
             (rays, words)
         } else {
-            let (w, h) = size(256);
+            let (w, h) = size(256, 256);
             let per_hit = a.ao_rays.unwrap_or(4);
-            let eye = rayset::eye_rays(&scene, w, h, 1);
-            let ao = rayset::ao_rays(&scene, &binary, &eye, per_hit, diagonal_radius);
+            let eye = rayset::eye_rays(scene, w, h, 1);
+            let ao = rayset::ao_rays(scene, &binary, &eye, per_hit, diagonal_radius);
             let words = format!(
                 "{w}×{h} eye rays, {per_hit} per hit, radius {diagonal_radius:.3}, closest hit; AO rays"
             );
@@ -395,9 +398,10 @@ pub fn run_bench(a: GpuBenchArgs) -> Result<()> {
         let sah = Bvh::build(&tris, &BuildOptions::sah());
         let sah_binary = raytree::structures::BinaryBvh::from_bvh(&sah, tris.clone())?;
         // The dual-split paper's frame: 1024×1024 at 1 sample per pixel.
-        let (pw, ph) = size(if paper { 1024 } else { 256 });
+        let side = if paper { 1024 } else { 256 };
+        let (pw, ph) = size(side, side);
         let bounces = raytree::render::PathSettings::default().bounces;
-        let path = rayset::path_rays(&scene, &sah_binary, pw, ph, bounces);
+        let path = rayset::path_rays(scene, &sah_binary, pw, ph, bounces);
         let mut dst = Vec::new();
         for kind in [
             StructureKind::Bvh,
@@ -468,6 +472,7 @@ pub fn run_bench(a: GpuBenchArgs) -> Result<()> {
     if let Some(p) = &a.json {
         #[derive(Serialize)]
         struct Report<'a> {
+            machine: crate::bench::machine::Machine,
             adapter: String,
             software: bool,
             preset: GpuPreset,
@@ -476,6 +481,7 @@ pub fn run_bench(a: GpuBenchArgs) -> Result<()> {
         super::common::write_json(
             p,
             &Report {
+                machine: crate::bench::machine::Machine::detect(&[rayon::current_num_threads()]),
                 adapter: gpu.describe(),
                 software: gpu.is_software(),
                 preset: a.preset,

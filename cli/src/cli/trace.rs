@@ -49,7 +49,8 @@ pub struct TraceArgs {
     #[arg(long)]
     json: Option<PathBuf>,
     /// Where to trace: cpu, or gpu (wgpu compute shaders over Vulkan; the
-    /// bvh with stack, sparse, hapala and laine-k).
+    /// bvh with stack, sparse, implicit-b, hapala and laine-k, dst,
+    /// dst-similar, bvh4 and bvh8).
     #[arg(long, value_enum, default_value_t = Device::Cpu)]
     device: Device,
 }

@@ -5,10 +5,11 @@
 //! - Collapse (`collapse.rs`): which binary descendants become a wide node's
 //!   children is chosen by dynamic programming over the binary tree to
 //!   minimise the SAH cost of the wide tree (the optimal collapse of Ylitie,
-//!   Karras and Laine 2017, §3.1, with their node cost of 1 and 1.2 per
-//!   block of four triangles, their 0.3 per triangle), not by a fixed
-//!   two-level merge. A leaf is a binary leaf or a binary subtree of at most
-//!   8 triangle references merged into one leaf where that costs less.
+//!   Karras and Laine 2017, §3.1: a node costs 1 and a block of four
+//!   triangles 1.2, their 0.3 per triangle, since leaves are tested a block
+//!   at a time), not by a fixed two-level merge. A leaf is a binary leaf, or
+//!   a binary subtree of at most 8 triangle references merged into one leaf
+//!   where that costs less.
 //! - Node ([`WideNode`]): the children's boxes as six rows of `W` floats
 //!   (`min x`, `min y`, `min z`, `max x`, `max y`, `max z`; empty lanes hold
 //!   an inverted box that no ray enters) and `W` child references: a wide
@@ -218,8 +219,9 @@ impl<const W: usize> WideBvh<W> {
         self.root
     }
 
-    /// SAH cost of the wide tree (node cost 1, triangle cost 0.3, areas
-    /// relative to the root's), as the collapse minimised it.
+    /// SAH cost of the wide tree (node cost 1, 1.2 per block of four
+    /// triangles, areas relative to the root's), as the collapse minimised
+    /// it.
     pub fn sah_cost(&self) -> f64 {
         self.sah_cost
     }

@@ -238,8 +238,8 @@ mod x86 {
         table
     };
 
-    /// Stores the eight lanes of `d` and `refs` selected by permutation
-    /// `idx` into `e`, `count` of them.
+    /// Stores compressed lanes into `e`: entry distances `d` and references
+    /// `refs`, of which the first `count` are the entered children.
     #[target_feature(enable = "avx2,fma")]
     #[inline]
     fn store8(e: &mut Entered<8>, d: __m256, refs: __m256i, count: u32) {
