@@ -9,12 +9,32 @@
 //! ```
 //!
 //! `RAYTREE_BUILD_ONLY=1` skips the traces; `RAYTREE_ROUNDS` sets the
-//! rounds (default 5).
+//! rounds (default 5); `RAYTREE_BUILDERS=sah,sbvh+opt` picks the variants
+//! (default: all). Each line ends with a fingerprint of the tree (its nodes
+//! and reference list), so that a change to a builder that must not change
+//! its trees can be checked.
 
 use raytree::bvh::OptimizeOptions;
 use raytree::prelude::*;
 use raytree::render::rayset;
+use std::hash::{Hash, Hasher};
 use std::time::Instant;
+
+/// A hash of the tree's nodes (boxes by their bits, links, depths) and its
+/// reference list.
+fn fingerprint(bvh: &Bvh) -> u64 {
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    for n in &bvh.nodes {
+        for v in [n.bounds.min, n.bounds.max] {
+            v.to_array().map(f32::to_bits).hash(&mut h);
+        }
+        n.parent.hash(&mut h);
+        n.depth.hash(&mut h);
+        format!("{:?}", n.kind).hash(&mut h);
+    }
+    bvh.prims.hash(&mut h);
+    h.finish()
+}
 
 struct Variant {
     name: &'static str,
@@ -85,12 +105,23 @@ fn main() {
         .build()
         .unwrap();
     let threads = rayon::current_num_threads();
+    let picked: Option<Vec<String>> = std::env::var("RAYTREE_BUILDERS")
+        .ok()
+        .map(|s| s.split(',').map(str::to_owned).collect());
+    let variants: Vec<&Variant> = VARIANTS
+        .iter()
+        .filter(|v| {
+            picked
+                .as_ref()
+                .is_none_or(|p| p.iter().any(|n| n == v.name))
+        })
+        .collect();
     for spec in &specs {
         let scene = Scene::from_spec(spec).unwrap();
         let tris = &scene.triangles;
         println!("{spec}: {} triangles", tris.len());
         let mut bvhs = Vec::new();
-        for v in &VARIANTS {
+        for v in &variants {
             let (mut t1, mut tn) = (f64::INFINITY, f64::INFINITY);
             let mut bvh = None;
             for _ in 0..rounds.min(3) {
@@ -103,7 +134,7 @@ fn main() {
             let bvh = bvh.unwrap();
             let s = &bvh.stats;
             println!(
-                "  {:<9} build {:>8.1} ms (1 thread) {:>8.1} ms ({threads} threads)  SAH {:>8.3}  nodes {:>8}  refs {:>8} ({:.3}x)  depth {}",
+                "  {:<9} build {:>8.1} ms (1 thread) {:>8.1} ms ({threads} threads)  SAH {:>8.3}  nodes {:>8}  refs {:>8} ({:.3}x)  depth {}  tree {:016x}",
                 v.name,
                 t1 * 1e3,
                 tn * 1e3,
@@ -111,7 +142,8 @@ fn main() {
                 s.nodes,
                 s.references,
                 s.references as f64 / tris.len() as f64,
-                s.depth
+                s.depth,
+                fingerprint(&bvh)
             );
             bvhs.push(bvh);
         }
@@ -145,7 +177,7 @@ fn main() {
                 "{kind}: hits differ {hits:?}"
             );
             print!("  {kind:<8} {:>8} rays, Mrays/s:", rays.len());
-            for (k, v) in VARIANTS.iter().enumerate() {
+            for (k, v) in variants.iter().enumerate() {
                 print!(
                     " {} {:.2} ({:.3})",
                     v.name,

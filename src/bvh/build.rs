@@ -4,7 +4,7 @@
 use super::binning::{best_split, Split, MAX_BINS};
 use super::{BuildStats, Bvh, Node, NodeKind, NO_PARENT};
 use crate::geometry::{Aabb, Triangle};
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -260,7 +260,7 @@ fn subtree(
         // SAH: a leaf when it is no dearer than the best split.
         Some(s) if n <= max_leaf && s.cost >= n as f32 => return leaf(nodes),
         Some(s) => {
-            let (mid, lb, rb) = partition(ctx, ids, |c| s.map.bin(c) < s.bin);
+            let (mid, lb, rb) = partition(ctx, ids, |c| s.goes_left(c));
             (mid, s.map.axis, lb, rb)
         }
         None if n <= max_leaf => return leaf(nodes),
@@ -330,22 +330,30 @@ fn partition(
     ids: &mut [u32],
     left: impl Fn(Vec3) -> bool,
 ) -> (usize, (Aabb, Aabb), (Aabb, Aabb)) {
-    let (mut lb, mut lc, mut rb, mut rc) = (Aabb::EMPTY, Aabb::EMPTY, Aabb::EMPTY, Aabb::EMPTY);
+    // Corners in SSE registers: a box grows by two instructions.
+    let empty = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
+    let (mut lb, mut lc, mut rb, mut rc) = (empty, empty, empty, empty);
+    let grow = |b: &mut (Vec3A, Vec3A), min: Vec3A, max: Vec3A| {
+        b.0 = b.0.min(min);
+        b.1 = b.1.max(max);
+    };
     let mut mid = 0;
     for k in 0..ids.len() {
         let i = ids[k] as usize;
-        let (b, c) = (ctx.bounds[i], ctx.centroids[i]);
+        let (b, c) = (&ctx.bounds[i], ctx.centroids[i]);
+        let (min, max, ca) = (Vec3A::from(b.min), Vec3A::from(b.max), Vec3A::from(c));
         if left(c) {
-            lb = lb.union(b);
-            lc = lc.grow(c);
+            grow(&mut lb, min, max);
+            grow(&mut lc, ca, ca);
             ids.swap(mid, k);
             mid += 1;
         } else {
-            rb = rb.union(b);
-            rc = rc.grow(c);
+            grow(&mut rb, min, max);
+            grow(&mut rc, ca, ca);
         }
     }
-    (mid, (lb, lc), (rb, rc))
+    let aabb = |b: (Vec3A, Vec3A)| Aabb::new(b.0.into(), b.1.into());
+    (mid, (aabb(lb), aabb(lc)), (aabb(rb), aabb(rc)))
 }
 
 #[cfg(test)]
