@@ -34,6 +34,14 @@ pub struct TriBlock {
     pub prims: [u32; LANES],
 }
 
+impl TriBlock {
+    /// Lanes in use (1 to 4): unused lanes come after the used ones.
+    #[inline(always)]
+    pub fn count(&self) -> usize {
+        self.prims.iter().filter(|&&p| p != EMPTY).count()
+    }
+}
+
 /// Appends the blocks of a leaf whose triangles are `prims` (mesh indices,
 /// at least one) and returns the first block's index.
 pub fn push_leaf(blocks: &mut Vec<TriBlock>, prims: &[u32], triangles: &[Triangle]) -> u32 {
@@ -228,7 +236,6 @@ pub fn intersect_blocks_with<const ANY: bool, S: Stats>(
         let w = bx * ay - by * ax;
         let det = u + v + w;
         let m = ax.abs() + ay.abs() + a_z.abs();
-        let t_scaled = u * (sz * a_z) + v * (sz * b_z) + w * (sz * c_z);
         let zero = Vec4::ZERO;
         let det_abs = det.abs();
         // The scalar test's exact paths: an edge function exactly zero, an
@@ -236,11 +243,25 @@ pub fn intersect_blocks_with<const ANY: bool, S: Stats>(
         let exact = u.cmpeq(zero) | v.cmpeq(zero) | w.cmpeq(zero);
         let conditioned =
             det_abs.cmpge(m * m * Vec4::splat(ILL_CONDITIONED)) & m.cmpge(Vec4::splat(TINY_SCALE));
-        let precise = exact.bitmask() | !conditioned.bitmask();
         // Edge functions of mixed signs, or a zero determinant: a miss.
         let neg = u.cmplt(zero) | v.cmplt(zero) | w.cmplt(zero);
         let pos = u.cmpgt(zero) | v.cmpgt(zero) | w.cmpgt(zero);
         let outside = (neg & pos) | det.cmpeq(zero);
+        let n = blk.count();
+        // Most blocks: every used lane a certain miss (outside, decided in
+        // f32). Nothing more to compute.
+        let missed = (outside & conditioned).bitmask() & !exact.bitmask();
+        let used = (1 << n) - 1;
+        if missed & used == used {
+            tally.triangles += n as u32;
+            if blk.prims[n - 1] & LAST != 0 {
+                return false;
+            }
+            i += 1;
+            continue;
+        }
+        let t_scaled = u * (sz * a_z) + v * (sz * b_z) + w * (sz * c_z);
+        let precise = exact.bitmask() | !conditioned.bitmask();
         // Overflow, or a determinant too small for 1/det: exact paths too.
         let finite = det_abs.cmpge(Vec4::splat(TINY_DETERMINANT))
             & det_abs.cmplt(Vec4::INFINITY)
@@ -251,9 +272,7 @@ pub fn intersect_blocks_with<const ANY: bool, S: Stats>(
         let t_abs = t_scaled * det.signum();
         let within = t_abs.cmpge(tmin * det_abs) & t_abs.cmple(Vec4::splat(*tmax) * det_abs);
         let candidates = (within.bitmask() & !outside.bitmask() & finite.bitmask()) & !precise;
-        let valid = blk.prims.map(|p| p != EMPTY);
-        let n = valid.iter().filter(|&&b| b).count();
-        let mut todo = (candidates | precise) & ((1 << n) - 1);
+        let mut todo = (candidates | precise) & used;
         let (v, w, det, t_scaled) = (
             v.to_array(),
             w.to_array(),
