@@ -131,6 +131,102 @@ fn clip(tri: &Triangle, within: &Aabb, axis: usize, lo: f32, hi: f32) -> Option<
     (b.min.cmple(b.max).all()).then_some(b)
 }
 
+/// A box in f64: the parts of triangles as [`spatial_split`] bins them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct DBox {
+    min: DVec3,
+    max: DVec3,
+}
+
+impl DBox {
+    const EMPTY: DBox = DBox {
+        min: DVec3::INFINITY,
+        max: DVec3::NEG_INFINITY,
+    };
+
+    fn grow(&mut self, q: DVec3) {
+        self.min = self.min.min(q);
+        self.max = self.max.max(q);
+    }
+
+    fn union(self, o: DBox) -> DBox {
+        DBox {
+            min: self.min.min(o.min),
+            max: self.max.max(o.max),
+        }
+    }
+
+    fn of(b: &Aabb) -> DBox {
+        DBox {
+            min: b.min.as_dvec3(),
+            max: b.max.as_dvec3(),
+        }
+    }
+
+    /// Surface area; 0 for the empty box.
+    fn area(&self) -> f64 {
+        if self.min.cmpgt(self.max).any() {
+            return 0.0;
+        }
+        let e = self.max - self.min;
+        2.0 * (e.x * e.y + e.y * e.z + e.z * e.x)
+    }
+}
+
+/// The part of `tri` in each slab `[p[k], p[k + 1]]`, `k` in `k0..=k1`,
+/// as [`clip`] finds it but without rounding to f32: `emit(k, box)` for
+/// each part that meets `within`, in increasing `k`, with the box of the
+/// part intersected with `within`. Rounded outward, each box is `clip`'s
+/// (tested below). Each plane's edge crossings are computed once, not once
+/// for each slab beside it. For the spatial split search, which only
+/// weighs the parts' areas; the split itself clips with [`clip`].
+fn clip_slabs(
+    tri: &Triangle,
+    within: &Aabb,
+    axis: usize,
+    p: &[f32],
+    (k0, k1): (usize, usize),
+    mut emit: impl FnMut(usize, DBox),
+) {
+    let v = [tri.a.as_dvec3(), tri.b.as_dvec3(), tri.c.as_dvec3()];
+    let within = DBox::of(within);
+    let crossings = |plane: f64| {
+        let mut b = DBox::EMPTY;
+        for i in 0..3 {
+            let (a, c) = (v[i], v[(i + 1) % 3]);
+            let (da, dc) = (a[axis] - plane, c[axis] - plane);
+            if (da < 0.0 && dc > 0.0) || (da > 0.0 && dc < 0.0) {
+                let mut q = a + (c - a) * (da / (da - dc));
+                q[axis] = plane;
+                b.grow(q);
+            }
+        }
+        b
+    };
+    let mut below = crossings(p[k0] as f64);
+    for k in k0..=k1 {
+        let (lo, hi) = (p[k] as f64, p[k + 1] as f64);
+        let above = crossings(hi);
+        let mut b = below.union(above);
+        for q in v {
+            if (lo..=hi).contains(&q[axis]) {
+                b.grow(q);
+            }
+        }
+        below = above;
+        if b.min.x > b.max.x {
+            continue;
+        }
+        let o = DBox {
+            min: b.min.max(within.min),
+            max: b.max.min(within.max),
+        };
+        if o.min.cmple(o.max).all() {
+            emit(k, o);
+        }
+    }
+}
+
 #[derive(Clone, Copy)]
 struct ObjectSplit {
     axis: usize,
@@ -243,11 +339,11 @@ fn spatial_split(
     area_node: f64,
     budget: usize,
 ) -> Option<SpatialSplit> {
-    let nbins = ctx.opts.bins;
+    let nbins = ctx.opts.spatial_bins;
     let n = refs.len();
     let mut best: Option<SpatialSplit> = None;
     // Per bin: box of the parts, entries, exits.
-    let mut bins = vec![(Aabb::EMPTY, 0u32, 0u32); nbins];
+    let mut bins = vec![(DBox::EMPTY, 0u32, 0u32); nbins];
     let mut right = vec![(0.0f64, 0u32); nbins];
     for axis in 0..3 {
         let (lo, hi) = (node.min[axis], node.max[axis]);
@@ -255,29 +351,27 @@ fn spatial_split(
             continue;
         }
         let p = planes(lo, hi, nbins);
-        bins.fill((Aabb::EMPTY, 0, 0));
+        bins.fill((DBox::EMPTY, 0, 0));
         for r in refs {
             let (k0, k1) = bin_span(&p, r.bounds.min[axis], r.bounds.max[axis]);
             if k0 == k1 {
-                bins[k0].0 = bins[k0].0.union(r.bounds);
+                bins[k0].0 = bins[k0].0.union(DBox::of(&r.bounds));
             } else {
                 let tri = &ctx.triangles[r.prim as usize];
-                for (k, bin) in bins.iter_mut().enumerate().take(k1 + 1).skip(k0) {
-                    if let Some(b) = clip(tri, &r.bounds, axis, p[k], p[k + 1]) {
-                        bin.0 = bin.0.union(b);
-                    }
-                }
+                clip_slabs(tri, &r.bounds, axis, &p, (k0, k1), |k, b| {
+                    bins[k].0 = bins[k].0.union(b);
+                });
             }
             bins[k0].1 += 1;
             bins[k1].2 += 1;
         }
-        let (mut acc, mut m) = (Aabb::EMPTY, 0u32);
+        let (mut acc, mut m) = (DBox::EMPTY, 0u32);
         for k in (1..nbins).rev() {
             acc = acc.union(bins[k].0);
             m += bins[k].2;
-            right[k] = (area(&acc), m);
+            right[k] = (acc.area(), m);
         }
-        let (mut acc, mut nl) = (Aabb::EMPTY, 0u32);
+        let (mut acc, mut nl) = (DBox::EMPTY, 0u32);
         for k in 1..nbins {
             acc = acc.union(bins[k - 1].0);
             nl += bins[k - 1].1;
@@ -289,7 +383,7 @@ fn spatial_split(
             if p[k] <= lo || p[k] >= hi {
                 continue;
             }
-            let cost = 1.0 + (area(&acc) * nl as f64 + ar * nr as f64) / area_node;
+            let cost = 1.0 + (acc.area() * nl as f64 + ar * nr as f64) / area_node;
             if best.is_none_or(|b| cost < b.cost) {
                 best = Some(SpatialSplit {
                     axis,
@@ -511,6 +605,63 @@ mod tests {
         assert!(clip(&t, &t.bounds(), 0, 4.0, 5.0).is_none());
         // A vertex on the plane belongs to both sides.
         assert!(clip(&t, &t.bounds(), 0, 3.0, 3.0).is_some());
+    }
+
+    /// `clip_slabs` gives, slab by slab, the boxes `clip` gives: random
+    /// triangles, references already clipped, planes through vertices and
+    /// repeated planes.
+    #[test]
+    fn slab_clipping_equals_clipping_each_slab() {
+        let mut rng = crate::rng::Pcg32::new(3, 9);
+        let mut parts = 0;
+        for case in 0..3000 {
+            let mut q = || {
+                Vec3::new(
+                    rng.range(-4.0, 4.0),
+                    rng.range(-4.0, 4.0),
+                    rng.range(-4.0, 4.0),
+                )
+            };
+            let t = Triangle::new(q(), q(), q());
+            let axis = case % 3;
+            // A reference: the triangle's box, or a part of it.
+            let mut within = t.bounds();
+            if case % 2 == 0 {
+                let cut = (within.min[axis] + within.max[axis]) * 0.5;
+                within.min[axis] = cut;
+            }
+            let (lo, hi) = (within.min[axis], within.max[axis]);
+            let mut p = planes(lo, hi, [2, 3, 8, 32][case % 4]);
+            if case % 5 == 0 {
+                // A plane through a vertex.
+                let k = p.len() / 2;
+                p[k] = t.a[axis].clamp(p[k - 1], p[k + 1]);
+            }
+            let (k0, k1) = bin_span(&p, lo, hi);
+            let mut got = Vec::new();
+            clip_slabs(&t, &within, axis, &p, (k0, k1), |k, b| got.push((k, b)));
+            let want: Vec<(usize, Aabb)> = (k0..=k1)
+                .filter_map(|k| clip(&t, &within, axis, p[k], p[k + 1]).map(|b| (k, b)))
+                .collect();
+            // Rounded outward, each f64 part is `clip`'s box. `clip` may
+            // keep a part that touches `within` only after rounding.
+            let rounded = |b: &DBox| Aabb {
+                min: Vec3::new(down(b.min.x), down(b.min.y), down(b.min.z)),
+                max: Vec3::new(up(b.max.x), up(b.max.y), up(b.max.z)),
+            };
+            let mut w = want.iter().peekable();
+            for (k, b) in &got {
+                while w.peek().is_some_and(|(kw, _)| kw < k) {
+                    let (kw, bw) = w.next().unwrap();
+                    let touching = bw.min.cmpeq(bw.max).any();
+                    assert!(touching, "case {case}: slab {kw} only from clip: {bw:?}");
+                }
+                let (kw, bw) = w.next().expect("a part clip has too");
+                assert_eq!((kw, bw), (k, &rounded(b)), "case {case}");
+            }
+            parts += got.len();
+        }
+        assert!(parts > 10_000, "{parts}");
     }
 
     #[test]
