@@ -10,15 +10,20 @@
 //!
 //! `RAYTREE_BUILD_ONLY=1` skips the traces; `RAYTREE_ROUNDS` sets the
 //! rounds (default 5); `RAYTREE_BUILDERS=sah,sbvh+opt` picks the variants
-//! (default: all). Each line ends with a fingerprint of the tree (its nodes
+//! (default: all). The peak heap is the most a one-thread build held at
+//! once, beyond what was live before it. Each line ends with a fingerprint of the tree (its nodes
 //! and reference list), so that a change to a builder that must not change
 //! its trees can be checked.
 
 use raytree::bvh::OptimizeOptions;
+use raytree::meter::{peak_during, Metered};
 use raytree::prelude::*;
 use raytree::render::rayset;
 use std::hash::{Hash, Hasher};
 use std::time::Instant;
+
+#[global_allocator]
+static HEAP: Metered = Metered;
 
 /// A hash of the tree's nodes (boxes by their bits, links, depths) and its
 /// reference list.
@@ -124,8 +129,10 @@ fn main() {
         for v in &variants {
             let (mut t1, mut tn) = (f64::INFINITY, f64::INFINITY);
             let mut bvh = None;
+            let mut peak = 0;
             for _ in 0..rounds.min(3) {
-                let (b, t) = one.install(|| build(v, tris));
+                let ((b, t), p) = peak_during(|| one.install(|| build(v, tris)));
+                peak = p.unwrap_or(0);
                 t1 = t1.min(t);
                 let (_, t) = build(v, tris);
                 tn = tn.min(t);
@@ -134,7 +141,7 @@ fn main() {
             let bvh = bvh.unwrap();
             let s = &bvh.stats;
             println!(
-                "  {:<9} build {:>8.1} ms (1 thread) {:>8.1} ms ({threads} threads)  SAH {:>8.3}  nodes {:>8}  refs {:>8} ({:.3}x)  depth {}  tree {:016x}",
+                "  {:<9} build {:>8.1} ms (1 thread) {:>8.1} ms ({threads} threads)  SAH {:>8.3}  nodes {:>8}  refs {:>8} ({:.3}x)  depth {}  peak heap {:.1} MiB ({:.0} B/ref)  tree {:016x}",
                 v.name,
                 t1 * 1e3,
                 tn * 1e3,
@@ -143,6 +150,8 @@ fn main() {
                 s.references,
                 s.references as f64 / tris.len() as f64,
                 s.depth,
+                peak as f64 / (1 << 20) as f64,
+                peak as f64 / s.references.max(1) as f64,
                 fingerprint(&bvh)
             );
             bvhs.push(bvh);

@@ -37,6 +37,7 @@ pub mod bvh;
 pub mod error;
 pub mod fuzzing;
 pub mod geometry;
+pub mod meter;
 pub mod names;
 pub mod par;
 pub mod rayfile;

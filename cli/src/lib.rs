@@ -6,4 +6,4 @@
 
 pub mod bench;
 pub mod cli;
-pub mod meter;
+pub use raytree::meter;

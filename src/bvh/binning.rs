@@ -89,7 +89,8 @@ impl Split {
     #[inline(always)]
     pub fn goes_left(&self, c: Vec3) -> bool {
         let m = &self.map;
-        !((c[m.axis] - m.min) * m.scale >= self.bin as f32)
+        let v = (c[m.axis] - m.min) * m.scale;
+        v < self.bin as f32 || v.is_nan()
     }
 }
 

@@ -330,37 +330,146 @@ fn subtree(
     }
 }
 
+/// Nodes of at least this many triangles are partitioned in parallel.
+const PARALLEL_PARTITION: usize = 1 << 16;
+/// The chunks of a parallel partition. Fixed, so that the order of the
+/// partitioned ids, and so the tree, does not depend on the thread count.
+const PARTITION_CHUNK: usize = 1 << 14;
+
+/// The two sides' boxes and centroid boxes while partitioning, corners in
+/// SSE registers: a box grows by two instructions.
+#[derive(Clone, Copy)]
+struct Sides {
+    lb: (Vec3A, Vec3A),
+    lc: (Vec3A, Vec3A),
+    rb: (Vec3A, Vec3A),
+    rc: (Vec3A, Vec3A),
+}
+
+impl Sides {
+    const EMPTY: (Vec3A, Vec3A) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
+
+    fn new() -> Self {
+        Sides {
+            lb: Self::EMPTY,
+            lc: Self::EMPTY,
+            rb: Self::EMPTY,
+            rc: Self::EMPTY,
+        }
+    }
+
+    #[inline(always)]
+    fn add(&mut self, ctx: &Ctx, i: usize, left: bool) {
+        let (b, c) = (&ctx.bounds[i], Vec3A::from(ctx.centroids[i]));
+        let (min, max) = (Vec3A::from(b.min), Vec3A::from(b.max));
+        let (bb, cb) = if left {
+            (&mut self.lb, &mut self.lc)
+        } else {
+            (&mut self.rb, &mut self.rc)
+        };
+        bb.0 = bb.0.min(min);
+        bb.1 = bb.1.max(max);
+        cb.0 = cb.0.min(c);
+        cb.1 = cb.1.max(c);
+    }
+
+    fn join(self, o: Sides) -> Sides {
+        let u = |a: (Vec3A, Vec3A), b: (Vec3A, Vec3A)| (a.0.min(b.0), a.1.max(b.1));
+        Sides {
+            lb: u(self.lb, o.lb),
+            lc: u(self.lc, o.lc),
+            rb: u(self.rb, o.rb),
+            rc: u(self.rc, o.rc),
+        }
+    }
+
+    fn boxes(self) -> ((Aabb, Aabb), (Aabb, Aabb)) {
+        let aabb = |b: (Vec3A, Vec3A)| Aabb::new(b.0.into(), b.1.into());
+        (
+            (aabb(self.lb), aabb(self.lc)),
+            (aabb(self.rb), aabb(self.rc)),
+        )
+    }
+}
+
 /// Moves the ids whose centroid `left` accepts to the front; returns how
-/// many, and the boxes and centroid boxes of the two sides.
+/// many, and the boxes and centroid boxes of the two sides. Large nodes
+/// are partitioned in parallel and stably ([`partition_parallel`]), small
+/// ones in place.
 fn partition(
     ctx: &Ctx,
     ids: &mut [u32],
-    left: impl Fn(Vec3) -> bool,
+    left: impl Fn(Vec3) -> bool + Sync,
 ) -> (usize, (Aabb, Aabb), (Aabb, Aabb)) {
-    // Corners in SSE registers: a box grows by two instructions.
-    let empty = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
-    let (mut lb, mut lc, mut rb, mut rc) = (empty, empty, empty, empty);
-    let grow = |b: &mut (Vec3A, Vec3A), min: Vec3A, max: Vec3A| {
-        b.0 = b.0.min(min);
-        b.1 = b.1.max(max);
-    };
+    if ids.len() >= PARALLEL_PARTITION {
+        return partition_parallel(ctx, ids, left);
+    }
+    let mut sides = Sides::new();
     let mut mid = 0;
     for k in 0..ids.len() {
         let i = ids[k] as usize;
-        let (b, c) = (&ctx.bounds[i], ctx.centroids[i]);
-        let (min, max, ca) = (Vec3A::from(b.min), Vec3A::from(b.max), Vec3A::from(c));
-        if left(c) {
-            grow(&mut lb, min, max);
-            grow(&mut lc, ca, ca);
+        let goes_left = left(ctx.centroids[i]);
+        sides.add(ctx, i, goes_left);
+        if goes_left {
             ids.swap(mid, k);
             mid += 1;
-        } else {
-            grow(&mut rb, min, max);
-            grow(&mut rc, ca, ca);
         }
     }
-    let aabb = |b: (Vec3A, Vec3A)| Aabb::new(b.0.into(), b.1.into());
-    (mid, (aabb(lb), aabb(lc)), (aabb(rb), aabb(rc)))
+    let (l, r) = sides.boxes();
+    (mid, l, r)
+}
+
+/// [`partition`] over chunks of [`PARTITION_CHUNK`] ids on rayon's
+/// threads: each chunk's left count, then each chunk writes its ids to its
+/// own places on both sides of a scratch list (lefts, then rights, in
+/// their order), which is copied back. One allocation per call.
+fn partition_parallel(
+    ctx: &Ctx,
+    ids: &mut [u32],
+    left: impl Fn(Vec3) -> bool + Sync,
+) -> (usize, (Aabb, Aabb), (Aabb, Aabb)) {
+    let counts: Vec<usize> = ids
+        .par_chunks(PARTITION_CHUNK)
+        .map(|c| {
+            c.iter()
+                .filter(|&&i| left(ctx.centroids[i as usize]))
+                .count()
+        })
+        .collect();
+    let mid: usize = counts.iter().sum();
+    let mut out = vec![0u32; ids.len()];
+    let (mut lefts, mut rights) = out.split_at_mut(mid);
+    let mut places = Vec::with_capacity(counts.len());
+    for (chunk, &nl) in ids.chunks(PARTITION_CHUNK).zip(&counts) {
+        let (l, rest) = std::mem::take(&mut lefts).split_at_mut(nl);
+        lefts = rest;
+        let (r, rest) = std::mem::take(&mut rights).split_at_mut(chunk.len() - nl);
+        rights = rest;
+        places.push((l, r));
+    }
+    let sides = ids
+        .par_chunks(PARTITION_CHUNK)
+        .zip(places)
+        .map(|(chunk, (l, r))| {
+            let mut sides = Sides::new();
+            let (mut nl, mut nr) = (0, 0);
+            for &id in chunk {
+                let goes_left = left(ctx.centroids[id as usize]);
+                sides.add(ctx, id as usize, goes_left);
+                if goes_left {
+                    l[nl] = id;
+                    nl += 1;
+                } else {
+                    r[nr] = id;
+                    nr += 1;
+                }
+            }
+            sides
+        })
+        .reduce(Sides::new, Sides::join);
+    ids.copy_from_slice(&out);
+    let (l, r) = sides.boxes();
+    (mid, l, r)
 }
 
 #[cfg(test)]
@@ -393,6 +502,59 @@ mod tests {
         let b = Bvh::build(&scene.triangles, &BuildOptions::sah());
         assert_eq!(a.nodes, b.nodes);
         assert_eq!(a.prims, b.prims);
+    }
+
+    /// The parallel partition puts the same ids on each side as the serial
+    /// one, with the same boxes, keeps each side in input order, and gives
+    /// the same order on one thread as on several.
+    #[test]
+    fn parallel_partition_is_a_stable_partition() {
+        let scene = Scene::builtin("hairball:3000").unwrap();
+        let bounds: Vec<Aabb> = scene.triangles.iter().map(Triangle::bounds).collect();
+        let centroids: Vec<Vec3> = bounds.iter().map(Aabb::center).collect();
+        let opts = BuildOptions::sah();
+        let ctx = Ctx {
+            bounds: &bounds,
+            centroids: &centroids,
+            opts: &opts,
+        };
+        let n = centroids.len() as u32;
+        // Every triangle many times over: more ids than PARALLEL_PARTITION.
+        let ids: Vec<u32> = (0..3 * PARALLEL_PARTITION as u32)
+            .map(|k| (k * 7919) % n)
+            .collect();
+        let left = |c: Vec3| c.x + 0.3 * c.y < 0.1;
+        let mut par = ids.clone();
+        let (mid, lp, rp) = partition_parallel(&ctx, &mut par, left);
+        let want: Vec<u32> = ids
+            .iter()
+            .copied()
+            .filter(|&i| left(centroids[i as usize]))
+            .chain(
+                ids.iter()
+                    .copied()
+                    .filter(|&i| !left(centroids[i as usize])),
+            )
+            .collect();
+        assert_eq!(par, want);
+        assert!(mid > 0 && mid < ids.len());
+        let mut serial = ids.clone();
+        let small = |s: &mut [u32]| {
+            let mut sides = Sides::new();
+            for &i in s.iter() {
+                sides.add(&ctx, i as usize, left(centroids[i as usize]));
+            }
+            sides.boxes()
+        };
+        let (ls, rs) = small(&mut serial);
+        assert_eq!((lp, rp), (ls, rs));
+        let one = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap();
+        let mut single = ids.clone();
+        one.install(|| partition_parallel(&ctx, &mut single, left));
+        assert_eq!(single, par);
     }
 
     #[test]

@@ -54,12 +54,14 @@ unsafe impl Send for Peer {}
 
 impl Peer {
     /// Copies the scene's mesh into Embree's buffers and builds its BVH at
-    /// `quality`; returns it with the build time (the scene commit).
+    /// `quality` on `threads` threads (Embree's device `threads=` setting,
+    /// so that a one-thread benchmark times a one-thread build); returns it
+    /// with the build time (the scene commit).
     ///
     /// # Errors
     /// [`Error::Invalid`] for a mesh without triangles, or when Embree
     /// refuses (its error code is named).
-    pub fn build(scene: &Scene, quality: Quality) -> Result<(Peer, f64)> {
+    pub fn build(scene: &Scene, quality: Quality, threads: usize) -> Result<(Peer, f64)> {
         let mesh = &scene.mesh;
         if mesh.positions.is_empty() || mesh.indices.is_empty() {
             return Err(Error::Invalid(format!(
@@ -67,8 +69,10 @@ impl Peer {
                 scene.name
             )));
         }
-        // SAFETY: a null configuration string asks for the defaults.
-        let device = unsafe { sys::rtcNewDevice(std::ptr::null()) };
+        let config = std::ffi::CString::new(format!("threads={threads}"))
+            .expect("a thread count has no NUL byte");
+        // SAFETY: `config` is a NUL-terminated string that outlives the call.
+        let device = unsafe { sys::rtcNewDevice(config.as_ptr()) };
         if device.is_null() {
             return Err(Error::Invalid("Embree: rtcNewDevice failed".into()));
         }
@@ -129,7 +133,7 @@ impl Peer {
             device,
             scene: scene_h,
             config: format!(
-                "{}: Embree {}, scene build quality {}, single rays, incoherent context",
+                "{}: Embree {}, scene build quality {}, {threads} build thread(s), single rays, incoherent context",
                 quality.contender(),
                 version(device),
                 match quality {

@@ -192,6 +192,13 @@ pub struct Row {
     /// Time to build its structure from the triangles (raytree: the SAH BVH
     /// and its flat layout).
     pub build_s: f64,
+    /// The most heap its build held at once (the `raytree` binary's meter):
+    /// on `raytree bvh stack` the SAH build and the binary layout, on
+    /// `raytree bvh8 sbvh` the SBVH build and its collapse; absent for the
+    /// other rows (the wide rows share the SAH build; the peers allocate
+    /// outside Rust's allocator, or inside their own crates).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub build_peak_heap_bytes: Option<u64>,
     pub measures: Vec<Measure>,
 }
 
@@ -231,9 +238,13 @@ fn agree(a: f32, b: f32) -> bool {
 /// through each (on the current rayon pool) and reports.
 pub fn run_scene(scene: &Scene, o: &Options, tick: &(dyn Fn() + Sync)) -> Result<SceneResult> {
     let start = Instant::now();
-    let bvh = Bvh::build(&scene.triangles, &o.build);
-    let bvh_s = start.elapsed().as_secs_f64();
-    let layout = BinaryBvh::from_bvh(&bvh, scene.triangles.clone())?;
+    let ((bvh, bvh_s, layout), sah_peak) = crate::meter::peak_during(|| {
+        let bvh = Bvh::build(&scene.triangles, &o.build);
+        let bvh_s = start.elapsed().as_secs_f64();
+        let layout = BinaryBvh::from_bvh(&bvh, scene.triangles.clone());
+        (bvh, bvh_s, layout)
+    });
+    let layout = layout?;
     let raytree_build = start.elapsed().as_secs_f64();
     let sets = RaySets::new(scene, &layout, o);
     let timed = |f: &dyn Fn() -> Result<Box<dyn Contender>>| -> Result<(f64, Box<dyn Contender>)> {
@@ -246,13 +257,15 @@ pub fn run_scene(scene: &Scene, o: &Options, tick: &(dyn Fn() + Sync)) -> Result
     let (b8_s, b8) = timed(&|| Ok(Box::new(Bvh8::from_bvh(&bvh, tris())?)))?;
     let (cw_s, cw) = timed(&|| Ok(Box::new(CwBvh::from_bvh(&bvh, tris())?)))?;
     let t = Instant::now();
-    let sbvh = Bvh::build(
-        &scene.triangles,
-        &BuildOptions::new(Builder::Sbvh).with_max_leaf_size(o.build.max_leaf_size),
-    );
-    let sb8: Box<dyn Contender> = Box::new(Bvh8::from_bvh(&sbvh, tris())?);
+    let (sb8, sbvh_peak) = crate::meter::peak_during(|| {
+        let sbvh = Bvh::build(
+            &scene.triangles,
+            &BuildOptions::new(Builder::Sbvh).with_max_leaf_size(o.build.max_leaf_size),
+        );
+        Bvh8::from_bvh(&sbvh, tris())
+    });
+    let sb8: Box<dyn Contender> = Box::new(sb8?);
     let sb8_s = t.elapsed().as_secs_f64();
-    drop(sbvh);
     let mut configs = vec![format!(
         "raytree: {} builder, leaves of at most {} triangles (bvh8 sbvh: the SBVH builder); bvh4/bvh8/cwbvh collapsed by SAH; wide kernels on the {} SIMD path; build times include the BVH build",
         o.build.builder.name(),
@@ -279,17 +292,23 @@ pub fn run_scene(scene: &Scene, o: &Options, tick: &(dyn Fn() + Sync)) -> Result
     }
     #[cfg(feature = "embree")]
     for q in [embree::Quality::Medium, embree::Quality::High] {
-        let (peer, build_s) = embree::Peer::build(scene, q)?;
+        let (peer, build_s) = embree::Peer::build(scene, q, rayon::current_num_threads())?;
         configs.push(peer.config.clone());
         contenders.push((q.contender().into(), build_s, Box::new(peer)));
     }
 
     let mut rows: Vec<Row> = contenders
         .iter()
-        .map(|(name, build_s, _)| Row {
+        .enumerate()
+        .map(|(k, (name, build_s, _))| Row {
             contender: name.clone(),
             picked: Vec::new(),
             build_s: *build_s,
+            build_peak_heap_bytes: match k {
+                0 => sah_peak,
+                4 => sbvh_peak,
+                _ => None,
+            },
             measures: Vec::new(),
         })
         .collect();
@@ -344,6 +363,7 @@ fn fastest(rows: &[Row]) -> Row {
         contender: FASTEST.into(),
         picked: Vec::new(),
         build_s: f64::NAN,
+        build_peak_heap_bytes: None,
         measures: Vec::new(),
     };
     for w in 0..rows[0].measures.len() {
@@ -380,7 +400,7 @@ pub fn markdown(r: &SceneResult) -> String {
     );
     let _ = writeln!(
         s,
-        "| contender | build s | primary Mrays/s | ao Mrays/s | path Mrays/s | agreeing with raytree |"
+        "| contender | build s (peak heap) | primary Mrays/s | ao Mrays/s | path Mrays/s | agreeing with raytree |"
     );
     let _ = writeln!(s, "|---|---:|---:|---:|---:|---|");
     for row in &r.rows {
@@ -394,10 +414,14 @@ pub fn markdown(r: &SceneResult) -> String {
                 .collect();
             format!("**{}** ({})", row.contender, picks.join(" / "))
         };
-        let build = if row.build_s.is_nan() {
-            "-".to_owned()
-        } else {
-            format!("{:.2}", row.build_s)
+        let build = match (row.build_s.is_nan(), row.build_peak_heap_bytes) {
+            (true, _) => "-".to_owned(),
+            (false, None) => format!("{:.3}", row.build_s),
+            (false, Some(b)) => format!(
+                "{:.3} ({:.1} MiB)",
+                row.build_s,
+                b as f64 / (1 << 20) as f64
+            ),
         };
         let cells: Vec<String> = row
             .measures

@@ -1,11 +1,13 @@
-//! The `raytree` command's heap meter: a global allocator over the system's
-//! that counts live heap bytes and their peak, so that a build's peak
-//! memory can be reported (`info`, and every command's JSON through
-//! `BuildStats::peak_heap_bytes`).
+//! A heap meter: a global allocator over the system's that counts live
+//! heap bytes and their peak, so that a build's peak memory can be
+//! reported (`raytree info`, every command's JSON through
+//! `BuildStats::peak_heap_bytes`, `bench peers`, `examples/builders`).
 //!
-//! The binary installs it (`main.rs`); a program that links this crate
-//! without installing it gets `None` from [`peak_during`]. Memory that C
-//! libraries allocate themselves (Embree) is not counted.
+//! A program installs it with
+//! `#[global_allocator] static HEAP: raytree::meter::Metered = raytree::meter::Metered;`
+//! (the `raytree` binary does); one that does not gets `None` from
+//! [`peak_during`]. Memory that C libraries allocate themselves (Embree)
+//! is not counted.
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering::Relaxed};
