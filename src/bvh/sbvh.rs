@@ -26,9 +26,11 @@
 //! children's (a spatial split leaves the parent's box, the union of its
 //! references' unclipped boxes, possibly larger).
 
+use super::binning::MAX_BINS;
 use super::build::{BuildOptions, PARALLEL_SUBTREE, SAH_MAX_DEPTH};
 use super::{Node, NodeKind, NO_PARENT};
 use crate::geometry::{Aabb, Triangle};
+use arrayvec::ArrayVec;
 use glam::{DVec3, Vec3};
 
 /// A triangle reference: the triangle's index and the box of its part.
@@ -261,8 +263,10 @@ fn object_split(refs: &[Ref], area_node: f64, nbins: usize) -> Option<ObjectSpli
     let cb = refs.iter().fold(Aabb::EMPTY, |b, r| b.grow(r.centroid()));
     let extent = cb.extent();
     let mut best: Option<ObjectSplit> = None;
-    let mut bins = vec![(Aabb::EMPTY, 0u32); nbins];
-    let mut right = vec![(0.0f64, Aabb::EMPTY); nbins];
+    // Fixed arrays: no allocation per node.
+    let mut bins = [(Aabb::EMPTY, 0u32); MAX_BINS];
+    let mut right = [(0.0f64, Aabb::EMPTY); MAX_BINS];
+    let (bins, right) = (&mut bins[..nbins], &mut right[..nbins]);
     for axis in 0..3 {
         if extent[axis] <= 0.0 || !extent[axis].is_finite() {
             continue;
@@ -306,8 +310,8 @@ fn object_split(refs: &[Ref], area_node: f64, nbins: usize) -> Option<ObjectSpli
 
 /// The planes of `nbins` equal bins over `[lo, hi]`: `nbins + 1` values,
 /// the first `lo` and the last `hi`, non-decreasing.
-fn planes(lo: f32, hi: f32, nbins: usize) -> Vec<f32> {
-    let mut p: Vec<f32> = (0..=nbins)
+fn planes(lo: f32, hi: f32, nbins: usize) -> ArrayVec<f32, { MAX_BINS + 1 }> {
+    let mut p: ArrayVec<f32, { MAX_BINS + 1 }> = (0..=nbins)
         .map(|k| {
             let t = k as f64 / nbins as f64;
             (lo as f64 + (hi as f64 - lo as f64) * t) as f32
@@ -343,8 +347,9 @@ fn spatial_split(
     let n = refs.len();
     let mut best: Option<SpatialSplit> = None;
     // Per bin: box of the parts, entries, exits.
-    let mut bins = vec![(DBox::EMPTY, 0u32, 0u32); nbins];
-    let mut right = vec![(0.0f64, 0u32); nbins];
+    let mut bins = [(DBox::EMPTY, 0u32, 0u32); MAX_BINS];
+    let mut right = [(0.0f64, 0u32); MAX_BINS];
+    let (bins, right) = (&mut bins[..nbins], &mut right[..nbins]);
     for axis in 0..3 {
         let (lo, hi) = (node.min[axis], node.max[axis]);
         if hi <= lo || !(hi - lo).is_finite() {
