@@ -11,9 +11,9 @@
 //! `RAYTREE_BUILD_ONLY=1` skips the traces; `RAYTREE_ROUNDS` sets the
 //! rounds (default 5); `RAYTREE_BUILDERS=sah,sbvh+opt` picks the variants
 //! (default: all). The peak heap is the most a one-thread build held at
-//! once, beyond what was live before it. Each line ends with a fingerprint of the tree (its nodes
-//! and reference list), so that a change to a builder that must not change
-//! its trees can be checked.
+//! once, beyond what was live before it. Each line ends with a fingerprint
+//! of the tree (its nodes and reference list), so that a change to a
+//! builder that must not change its trees can be checked.
 
 use raytree::bvh::OptimizeOptions;
 use raytree::meter::{peak_during, Metered};
@@ -35,7 +35,7 @@ fn fingerprint(bvh: &Bvh) -> u64 {
         }
         n.parent.hash(&mut h);
         n.depth.hash(&mut h);
-        format!("{:?}", n.kind).hash(&mut h);
+        n.kind.hash(&mut h);
     }
     bvh.prims.hash(&mut h);
     h.finish()
@@ -113,6 +113,19 @@ fn main() {
     let picked: Option<Vec<String>> = std::env::var("RAYTREE_BUILDERS")
         .ok()
         .map(|s| s.split(',').map(str::to_owned).collect());
+    if let Some(p) = &picked {
+        if let Some(bad) = p
+            .iter()
+            .find(|n| VARIANTS.iter().all(|v| v.name != n.as_str()))
+        {
+            let names: Vec<&str> = VARIANTS.iter().map(|v| v.name).collect();
+            eprintln!(
+                "RAYTREE_BUILDERS: unknown variant {bad:?} (known: {})",
+                names.join(", ")
+            );
+            std::process::exit(2);
+        }
+    }
     let variants: Vec<&Variant> = VARIANTS
         .iter()
         .filter(|v| {

@@ -14,7 +14,7 @@ pub struct Node {
 }
 
 /// What a [`Node`] holds.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum NodeKind {
     /// Two children, `left` = this node's id + 1; `axis` is the axis the
     /// builder split (0, 1, 2).

@@ -95,44 +95,6 @@ fn up(x: f64) -> f32 {
     }
 }
 
-/// The box of the part of `tri` with `lo <= p[axis] <= hi`, intersected
-/// with `within`, or `None` when that part is empty. The part's corners are
-/// the triangle's vertices inside the slab and the edges' crossings of its
-/// two planes; they are computed in f64 and the box rounded outward.
-fn clip(tri: &Triangle, within: &Aabb, axis: usize, lo: f32, hi: f32) -> Option<Aabb> {
-    let v = [tri.a.as_dvec3(), tri.b.as_dvec3(), tri.c.as_dvec3()];
-    let (lo, hi) = (lo as f64, hi as f64);
-    let mut min = DVec3::splat(f64::INFINITY);
-    let mut max = DVec3::splat(f64::NEG_INFINITY);
-    let mut add = |p: DVec3| {
-        min = min.min(p);
-        max = max.max(p);
-    };
-    for i in 0..3 {
-        let (a, b) = (v[i], v[(i + 1) % 3]);
-        if (lo..=hi).contains(&a[axis]) {
-            add(a);
-        }
-        for plane in [lo, hi] {
-            let (da, db) = (a[axis] - plane, b[axis] - plane);
-            if (da < 0.0 && db > 0.0) || (da > 0.0 && db < 0.0) {
-                let mut p = a + (b - a) * (da / (da - db));
-                p[axis] = plane;
-                add(p);
-            }
-        }
-    }
-    if min.x > max.x {
-        return None;
-    }
-    let clipped = Aabb {
-        min: Vec3::new(down(min.x), down(min.y), down(min.z)),
-        max: Vec3::new(up(max.x), up(max.y), up(max.z)),
-    };
-    let b = overlap(&clipped, within);
-    (b.min.cmple(b.max).all()).then_some(b)
-}
-
 /// A box in f64: the parts of triangles as [`spatial_split`] bins them.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct DBox {
@@ -175,6 +137,57 @@ impl DBox {
     }
 }
 
+/// The points where the edges of triangle `v` cross the plane
+/// `p[axis] = plane` (an edge that only touches it adds nothing), as a box.
+fn crossings(v: &[DVec3; 3], axis: usize, plane: f64) -> DBox {
+    let mut b = DBox::EMPTY;
+    for i in 0..3 {
+        let (a, c) = (v[i], v[(i + 1) % 3]);
+        let (da, dc) = (a[axis] - plane, c[axis] - plane);
+        if (da < 0.0 && dc > 0.0) || (da > 0.0 && dc < 0.0) {
+            let mut q = a + (c - a) * (da / (da - dc));
+            q[axis] = plane;
+            b.grow(q);
+        }
+    }
+    b
+}
+
+/// `b` grown by the vertices of `v` with `lo <= q[axis] <= hi`.
+fn with_vertices(mut b: DBox, v: &[DVec3; 3], axis: usize, lo: f64, hi: f64) -> DBox {
+    for q in v {
+        if (lo..=hi).contains(&q[axis]) {
+            b.grow(*q);
+        }
+    }
+    b
+}
+
+/// The vertices of `tri` in f64.
+fn vertices(tri: &Triangle) -> [DVec3; 3] {
+    [tri.a.as_dvec3(), tri.b.as_dvec3(), tri.c.as_dvec3()]
+}
+
+/// The box of the part of `tri` with `lo <= p[axis] <= hi`, intersected
+/// with `within`, or `None` when that part is empty. The part's corners are
+/// the triangle's vertices inside the slab and the edges' crossings of its
+/// two planes; they are computed in f64 and the box rounded outward.
+fn clip(tri: &Triangle, within: &Aabb, axis: usize, lo: f32, hi: f32) -> Option<Aabb> {
+    let v = vertices(tri);
+    let (lo, hi) = (lo as f64, hi as f64);
+    let part = crossings(&v, axis, lo).union(crossings(&v, axis, hi));
+    let DBox { min, max } = with_vertices(part, &v, axis, lo, hi);
+    if min.x > max.x {
+        return None;
+    }
+    let clipped = Aabb {
+        min: Vec3::new(down(min.x), down(min.y), down(min.z)),
+        max: Vec3::new(up(max.x), up(max.y), up(max.z)),
+    };
+    let b = overlap(&clipped, within);
+    (b.min.cmple(b.max).all()).then_some(b)
+}
+
 /// The part of `tri` in each slab `[p[k], p[k + 1]]`, `k` in `k0..=k1`,
 /// as [`clip`] finds it but without rounding to f32: `emit(k, box)` for
 /// each part that meets `within`, in increasing `k`, with the box of the
@@ -190,31 +203,13 @@ fn clip_slabs(
     (k0, k1): (usize, usize),
     mut emit: impl FnMut(usize, DBox),
 ) {
-    let v = [tri.a.as_dvec3(), tri.b.as_dvec3(), tri.c.as_dvec3()];
+    let v = vertices(tri);
     let within = DBox::of(within);
-    let crossings = |plane: f64| {
-        let mut b = DBox::EMPTY;
-        for i in 0..3 {
-            let (a, c) = (v[i], v[(i + 1) % 3]);
-            let (da, dc) = (a[axis] - plane, c[axis] - plane);
-            if (da < 0.0 && dc > 0.0) || (da > 0.0 && dc < 0.0) {
-                let mut q = a + (c - a) * (da / (da - dc));
-                q[axis] = plane;
-                b.grow(q);
-            }
-        }
-        b
-    };
-    let mut below = crossings(p[k0] as f64);
+    let mut below = crossings(&v, axis, p[k0] as f64);
     for k in k0..=k1 {
         let (lo, hi) = (p[k] as f64, p[k + 1] as f64);
-        let above = crossings(hi);
-        let mut b = below.union(above);
-        for q in v {
-            if (lo..=hi).contains(&q[axis]) {
-                b.grow(q);
-            }
-        }
+        let above = crossings(&v, axis, hi);
+        let b = with_vertices(below.union(above), &v, axis, lo, hi);
         below = above;
         if b.min.x > b.max.x {
             continue;
@@ -663,6 +658,10 @@ mod tests {
                 }
                 let (kw, bw) = w.next().expect("a part clip has too");
                 assert_eq!((kw, bw), (k, &rounded(b)), "case {case}");
+            }
+            for (kw, bw) in w {
+                let touching = bw.min.cmpeq(bw.max).any();
+                assert!(touching, "case {case}: slab {kw} only from clip: {bw:?}");
             }
             parts += got.len();
         }

@@ -299,14 +299,13 @@ pub fn run_scene(scene: &Scene, o: &Options, tick: &(dyn Fn() + Sync)) -> Result
 
     let mut rows: Vec<Row> = contenders
         .iter()
-        .enumerate()
-        .map(|(k, (name, build_s, _))| Row {
+        .map(|(name, build_s, _)| Row {
             contender: name.clone(),
             picked: Vec::new(),
             build_s: *build_s,
-            build_peak_heap_bytes: match k {
-                0 => sah_peak,
-                4 => sbvh_peak,
+            build_peak_heap_bytes: match name.as_str() {
+                n if n == RAYTREE[0] => sah_peak,
+                n if n == RAYTREE[4] => sbvh_peak,
                 _ => None,
             },
             measures: Vec::new(),
