@@ -1,4 +1,4 @@
-use glam::Vec3;
+use glam::{Vec3, Vec4};
 
 /// The largest coordinate magnitude raytree accepts for a vertex or a ray
 /// origin: 2¹²⁶ (about 8.5e37), so that the difference of two coordinates
@@ -51,21 +51,20 @@ impl Ray {
     ///
     /// A subnormal direction component is read as a zero of its sign (see
     /// [`DIRECTION_MIN`]): [`Self::direction`] returns the direction traced.
+    #[inline]
     pub fn new(origin: Vec3, direction: Vec3, tmin: f32, tmax: f32) -> Self {
-        let direction = Vec3::from_array(direction.to_array().map(|c| {
-            if c.abs() < f32::MIN_POSITIVE {
-                0.0f32.copysign(c)
-            } else {
-                c
-            }
-        }));
-        if !Self::valid_parts(origin, direction, tmin, tmax) {
-            let mut ray = Self::new(Vec3::ZERO, Vec3::Z, f32::INFINITY, f32::NEG_INFINITY);
-            ray.origin = origin;
-            ray.direction = direction;
-            return ray;
+        // Four lanes (the fourth a zero, read by no one): the subnormal
+        // flush, the checks and the divisions each in one vector operation.
+        // Division is correctly rounded lane by lane, so every constant is
+        // the one three scalar divisions give, bit for bit.
+        let d4 = Vec4::from((direction, 0.0));
+        let tiny = d4.abs().cmplt(Vec4::splat(f32::MIN_POSITIVE));
+        let d4 = Vec4::select(tiny, Vec4::ZERO.copysign(d4), d4);
+        let direction = d4.truncate();
+        if !Self::fast_valid(origin, d4, tmin, tmax) {
+            return Self::not_valid(origin, direction);
         }
-        let inv_direction = Vec3::ONE / direction;
+        let inv_direction = (Vec4::ONE / d4).truncate();
         let a = direction.abs();
         // First maximum, so that the choice is deterministic.
         let kz = if a.x >= a.y && a.x >= a.z {
@@ -80,11 +79,9 @@ impl Ray {
         if direction[kz] < 0.0 {
             std::mem::swap(&mut kx, &mut ky);
         }
-        let shear = Vec3::new(
-            direction[kx] / direction[kz],
-            direction[ky] / direction[kz],
-            1.0 / direction[kz],
-        );
+        let shear = (Vec4::new(direction[kx], direction[ky], 1.0, 1.0)
+            / Vec4::splat(direction[kz]))
+        .truncate();
         Ray {
             origin,
             direction,
@@ -94,6 +91,33 @@ impl Ray {
             k: [kx, ky, kz],
             shear,
         }
+    }
+
+    /// [`Self::valid_parts`] of a flushed direction (`d4`, fourth lane
+    /// zero) in a few vector comparisons: every origin coordinate within
+    /// the limit (NaN and infinities fail), every direction component
+    /// within [`DIRECTION_MAX`] and the largest at least [`DIRECTION_MIN`],
+    /// and no NaN bound.
+    #[inline(always)]
+    fn fast_valid(origin: Vec3, d4: Vec4, tmin: f32, tmax: f32) -> bool {
+        let o4 = Vec4::from((origin, 0.0));
+        let ad = d4.abs();
+        o4.abs().cmple(Vec4::splat(COORDINATE_LIMIT)).all()
+            & ad.cmple(Vec4::splat(DIRECTION_MAX)).all()
+            & (ad.max_element() >= DIRECTION_MIN)
+            & !tmin.is_nan()
+            & !tmax.is_nan()
+    }
+
+    /// The ray [`Self::new`] makes of parts that are not valid: the empty
+    /// interval and a finite stand-in for the derived constants.
+    #[cold]
+    #[inline(never)]
+    fn not_valid(origin: Vec3, direction: Vec3) -> Self {
+        let mut ray = Self::new(Vec3::ZERO, Vec3::Z, f32::INFINITY, f32::NEG_INFINITY);
+        ray.origin = origin;
+        ray.direction = direction;
+        ray
     }
 
     /// A ray over `[0, +inf)`.
@@ -206,6 +230,107 @@ impl std::fmt::Display for Fault {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The constructor as three scalar divisions per constant and the
+    /// validity check of `valid_parts`: what `new` computes in vectors.
+    fn scalar_new(origin: Vec3, direction: Vec3, tmin: f32, tmax: f32) -> Ray {
+        let direction = Vec3::from_array(direction.to_array().map(|c| {
+            if c.abs() < f32::MIN_POSITIVE {
+                0.0f32.copysign(c)
+            } else {
+                c
+            }
+        }));
+        if !Ray::valid_parts(origin, direction, tmin, tmax) {
+            let mut ray = scalar_new(Vec3::ZERO, Vec3::Z, f32::INFINITY, f32::NEG_INFINITY);
+            ray.origin = origin;
+            ray.direction = direction;
+            return ray;
+        }
+        let a = direction.abs();
+        let kz = if a.x >= a.y && a.x >= a.z {
+            0
+        } else if a.y >= a.z {
+            1
+        } else {
+            2
+        };
+        let mut kx = (kz + 1) % 3;
+        let mut ky = (kx + 1) % 3;
+        if direction[kz] < 0.0 {
+            std::mem::swap(&mut kx, &mut ky);
+        }
+        Ray {
+            origin,
+            direction,
+            tmin,
+            tmax,
+            inv_direction: Vec3::new(1.0 / direction.x, 1.0 / direction.y, 1.0 / direction.z),
+            k: [kx, ky, kz],
+            shear: Vec3::new(
+                direction[kx] / direction[kz],
+                direction[ky] / direction[kz],
+                1.0 / direction[kz],
+            ),
+        }
+    }
+
+    fn bits(r: &Ray) -> Vec<u32> {
+        let v = |v: Vec3| v.to_array().map(f32::to_bits);
+        let mut b = Vec::new();
+        b.extend(v(r.origin));
+        b.extend(v(r.direction));
+        b.extend([r.tmin.to_bits(), r.tmax.to_bits()]);
+        b.extend(v(r.inv_direction));
+        b.extend(r.k.map(|k| k as u32));
+        b.extend(v(r.shear));
+        b
+    }
+
+    /// Random rays of every scale and the edge values (zeros of both signs,
+    /// subnormals, the limits and one step past them, infinities, NaN):
+    /// the vector constructor's every field equals the scalar one's, bit
+    /// for bit, and both agree on validity.
+    #[test]
+    fn vector_constructor_equals_the_scalar_one() {
+        let mut rng = crate::rng::Pcg32::new(11, 5);
+        let edge = [
+            0.0,
+            -0.0,
+            1e-45,
+            -1e-39,
+            f32::MIN_POSITIVE,
+            DIRECTION_MIN,
+            DIRECTION_MIN * 0.5,
+            DIRECTION_MAX,
+            DIRECTION_MAX * 2.0,
+            COORDINATE_LIMIT,
+            -COORDINATE_LIMIT * 1.5,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+            1.0,
+            -3.5,
+        ];
+        let mut valid = 0;
+        for case in 0..20000 {
+            let mut c = || {
+                if rng.next_f32() < 0.15 {
+                    edge[(rng.next_u32() as usize) % edge.len()]
+                } else {
+                    let e = (rng.next_f32() * 80.0 - 40.0) as i32;
+                    (rng.next_f32() * 2.0 - 1.0) * 2f32.powi(e)
+                }
+            };
+            let (o, d) = (Vec3::new(c(), c(), c()), Vec3::new(c(), c(), c()));
+            let (t0, t1) = (c(), c());
+            let (a, b) = (Ray::new(o, d, t0, t1), scalar_new(o, d, t0, t1));
+            assert_eq!(bits(&a), bits(&b), "case {case}: {o} {d} {t0} {t1}");
+            assert_eq!(a.is_valid(), b.is_valid());
+            valid += a.is_valid() as u32;
+        }
+        assert!(valid > 5000 && valid < 19000, "{valid} valid rays");
+    }
 
     #[test]
     fn zero_components_give_signed_infinite_reciprocals() {

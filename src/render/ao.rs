@@ -11,9 +11,7 @@
 //! they differ in the traversal work, which is what the paper measured.
 
 pub use super::sampling::Sampling;
-use super::sampling::{
-    cosine_hemisphere, cosine_hemisphere_paper, eye_ray_sampled, facing_normal, offset_origin,
-};
+use super::sampling::{eye_ray_sampled, facing_normal, offset_origin, Frame};
 use super::{Ctx, RaySink};
 use crate::geometry::Ray;
 use crate::rng::Pcg32;
@@ -242,18 +240,17 @@ pub(super) fn eye_sample<A: Accel, S: RaySink>(
     EyeSample { hit, facing, rng }
 }
 
-/// Occlusion ray `k` of `s.ao_rays` from a hit at `origin` with unit normal
-/// `n`, in the form `s` asks for, drawing from `rng`.
+/// Occlusion ray `k` of `s.ao_rays` from a hit at `origin`, spread in the
+/// hit's `frame` ([`ao_frame`]), in the form `s` asks for, drawing from
+/// `rng`.
 #[inline]
-pub(crate) fn ao_ray(s: &AoSettings, origin: Vec3, n: Vec3, k: u32, rng: &mut Pcg32) -> Ray {
+pub(crate) fn ao_ray(s: &AoSettings, origin: Vec3, frame: &Frame, k: u32, rng: &mut Pcg32) -> Ray {
     match (s.query, s.sampling) {
         // The default render's draws, bit for bit.
-        (AoQuery::Any, Sampling::Independent) => {
-            Ray::new(origin, cosine_hemisphere(n, rng), 0.0, s.radius)
-        }
+        (AoQuery::Any, Sampling::Independent) => Ray::new(origin, frame.cosine(rng), 0.0, s.radius),
         (query, sampling) => {
             let (u, v) = sampling.sample(k, s.ao_rays, rng);
-            let d = cosine_hemisphere_paper(n, u, v);
+            let d = frame.cosine_paper(u, v);
             let tmin = if query == AoQuery::Closest {
                 PAPER_TMIN
             } else {
@@ -261,6 +258,16 @@ pub(crate) fn ao_ray(s: &AoSettings, origin: Vec3, n: Vec3, k: u32, rng: &mut Pc
             };
             Ray::new(origin, d, tmin, s.radius)
         }
+    }
+}
+
+/// The basis the occlusion rays of a hit with unit normal `n` spread in,
+/// in the form of `s`: made once per hit, read by [`ao_ray`].
+#[inline]
+pub(crate) fn ao_frame(s: &AoSettings, n: Vec3) -> Frame {
+    match (s.query, s.sampling) {
+        (AoQuery::Any, Sampling::Independent) => Frame::any(n),
+        _ => Frame::paper(n),
     }
 }
 
@@ -277,8 +284,9 @@ pub(super) fn ao_value<A: Accel, S: RaySink>(
         return s.background;
     };
     let mut open = 0u32;
+    let frame = ao_frame(s, n);
     for k in 0..s.ao_rays {
-        let ray = ao_ray(s, origin, n, k, &mut e.rng);
+        let ray = ao_ray(s, origin, &frame, k, &mut e.rng);
         stats.ray();
         let blocked = match s.query {
             AoQuery::Any => accel.any_hit(&ray, stats).is_some(),

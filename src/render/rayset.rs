@@ -74,8 +74,9 @@ pub fn ao_workload<A: Accel>(
                 let first = ao.len();
                 if let Some(hit) = accel.closest_hit(&ray, &mut NoStats) {
                     let (origin, n) = super::ao::ao_start(scene, s, &ray, &hit);
+                    let frame = super::ao::ao_frame(s, n);
                     for k in 0..s.ao_rays {
-                        ao.push(super::ao::ao_ray(s, origin, n, k, &mut rng));
+                        ao.push(super::ao::ao_ray(s, origin, &frame, k, &mut rng));
                     }
                 }
                 eye.push((ray, first..ao.len()));

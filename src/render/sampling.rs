@@ -8,27 +8,56 @@ use glam::Vec3;
 /// A cosine-weighted direction about the unit normal `n` (Malley's method:
 /// a uniform disk point lifted to the hemisphere).
 pub fn cosine_hemisphere(n: Vec3, rng: &mut Pcg32) -> Vec3 {
-    let r = rng.next_f32().sqrt();
-    let phi = std::f32::consts::TAU * rng.next_f32();
-    let (x, y) = (r * phi.cos(), r * phi.sin());
-    let z = (1.0 - r * r).max(0.0).sqrt();
-    let (t, b) = n.any_orthonormal_pair();
-    (t * x + b * y + n * z).normalize()
+    Frame::any(n).cosine(rng)
 }
 
-/// A cosine-weighted direction about the unit normal `n` from the sample
-/// (`u`, `v`) in `[0,1)²`, as the stackless paper's tracer maps it
-/// (Barringer & Akenine-Möller 2013, supplemental `Tracer::sampleAO`):
-/// `r² = v`, `φ = 2π·u`, `d = t·r·cos φ + b·r·sin φ + n·√(1−r²)`, normalized,
-/// in its basis `t = normalize(a × n)`, `b = n × t`, `a` = +Y when
-/// `|n.x| > 0.1` and +X otherwise.
-pub fn cosine_hemisphere_paper(n: Vec3, u: f32, v: f32) -> Vec3 {
-    let a = if n.x.abs() > 0.1 { Vec3::Y } else { Vec3::X };
-    let t = a.cross(n).normalize();
-    let b = n.cross(t);
-    let phi = std::f32::consts::TAU * u;
-    let r = v.sqrt();
-    (t * (phi.cos() * r) + b * (phi.sin() * r) + n * (1.0 - v).max(0.0).sqrt()).normalize()
+/// An orthonormal basis `(t, b, n)` about a unit normal `n`, made once per
+/// hit and shared by its occlusion rays (the directions are those of
+/// [`cosine_hemisphere`] and of the stackless paper's tracer, bit for bit).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Frame {
+    t: Vec3,
+    b: Vec3,
+    n: Vec3,
+}
+
+impl Frame {
+    /// The basis of [`cosine_hemisphere`]: glam's `any_orthonormal_pair`.
+    pub fn any(n: Vec3) -> Frame {
+        let (t, b) = n.any_orthonormal_pair();
+        Frame { t, b, n }
+    }
+
+    /// The stackless paper tracer's basis (Barringer & Akenine-Möller 2013,
+    /// supplemental `Tracer::sampleAO`): `t = normalize(a × n)`,
+    /// `b = n × t`, `a` = +Y when `|n.x| > 0.1` and +X otherwise.
+    pub fn paper(n: Vec3) -> Frame {
+        let a = if n.x.abs() > 0.1 { Vec3::Y } else { Vec3::X };
+        let t = a.cross(n).normalize();
+        let b = n.cross(t);
+        Frame { t, b, n }
+    }
+
+    /// [`cosine_hemisphere`] in this basis, drawing two numbers.
+    #[inline]
+    pub fn cosine(&self, rng: &mut Pcg32) -> Vec3 {
+        let r = rng.next_f32().sqrt();
+        let phi = std::f32::consts::TAU * rng.next_f32();
+        let (x, y) = (r * phi.cos(), r * phi.sin());
+        let z = (1.0 - r * r).max(0.0).sqrt();
+        (self.t * x + self.b * y + self.n * z).normalize()
+    }
+
+    /// A cosine-weighted direction from the sample (`u`, `v`) in `[0,1)²`
+    /// as the stackless paper's tracer maps it: `r² = v`, `φ = 2π·u`,
+    /// `d = t·r·cos φ + b·r·sin φ + n·√(1−r²)`, normalized.
+    #[inline]
+    pub fn cosine_paper(&self, u: f32, v: f32) -> Vec3 {
+        let phi = std::f32::consts::TAU * u;
+        let r = v.sqrt();
+        (self.t * (phi.cos() * r) + self.b * (phi.sin() * r) + self.n * (1.0 - v).max(0.0).sqrt())
+            .normalize()
+    }
 }
 
 /// How a pixel's eye rays are placed in it, and a hit's AO directions
@@ -191,7 +220,7 @@ mod tests {
         ] {
             let mut mean_cos = 0.0;
             for _ in 0..20000 {
-                let d = cosine_hemisphere_paper(n, rng.next_f32(), rng.next_f32());
+                let d = Frame::paper(n).cosine_paper(rng.next_f32(), rng.next_f32());
                 assert!((d.length() - 1.0).abs() < 1e-5);
                 assert!(d.dot(n) >= -1e-6);
                 mean_cos += d.dot(n) as f64;
