@@ -77,11 +77,18 @@ def main() -> None:
         type=int,
         default=100,
         help="rays for trimesh's pure-numpy intersector, traced 10 at a time (it is slow, and "
-        "its memory grows with the triangles whose boxes each ray's box meets)",
+        "its memory grows with the triangles whose boxes each ray's box meets); 0 skips it",
     )
     p.add_argument("--cli", help="path of a built `raytree` binary: also time the ray-file route")
     args = p.parse_args()
-    threads = [int(t) for t in args.threads.split(",")]
+    if args.rays < 1 or args.repeats < 1:
+        p.error("--rays and --repeats must be at least 1")
+    try:
+        threads = [int(t) for t in args.threads.split(",")]
+    except ValueError:
+        p.error(f"--threads: not a comma-separated list of counts: {args.threads!r}")
+    if any(t < 1 for t in threads):
+        p.error("--threads: every count must be at least 1")
 
     if Path(args.scene).exists():
         scene = raytree.Scene.load(args.scene)
@@ -153,6 +160,8 @@ def main() -> None:
     except Exception as e:
         notes.append(f"embreex skipped: {e}")
     try:
+        if args.trimesh_rays <= 0:
+            raise RuntimeError("--trimesh-rays 0")
         import trimesh
 
         mesh = trimesh.Trimesh(scene.vertices.astype(np.float64), scene.triangles, process=False)

@@ -212,6 +212,12 @@ pub fn intersect_blocks_with<const ANY: bool, S: Stats>(
     tally: &mut Tally,
     stats: &mut S,
 ) -> bool {
+    #[cfg(feature = "scalar-leaves")]
+    {
+        let _ = br;
+        return scalar_blocks::<ANY, S>(blocks, first, triangles, ray, tmax, best, tally, stats);
+    }
+    #[cfg_attr(feature = "scalar-leaves", allow(unreachable_code))]
     let [kx, ky, kz] = br.k;
     let [sx, sy, sz] = br.s;
     let [ox, oy, oz] = br.o;
@@ -316,6 +322,50 @@ pub fn intersect_blocks_with<const ANY: bool, S: Stats>(
         tally.triangles += n as u32;
         if blk.prims[n - 1] & LAST != 0 {
             return false;
+        }
+        i += 1;
+    }
+}
+
+/// The `scalar-leaves` experiment: the blocks' triangles tested one at a
+/// time, in leaf order, with the scalar watertight test and the leaf
+/// list's rules ([`super::leaf::intersect_leaf`]'s loop over the blocks'
+/// lanes).
+#[cfg(feature = "scalar-leaves")]
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn scalar_blocks<const ANY: bool, S: Stats>(
+    blocks: &[TriBlock],
+    first: u32,
+    triangles: &[Triangle],
+    ray: &Ray,
+    tmax: &mut f32,
+    best: &mut Option<Hit>,
+    tally: &mut Tally,
+    stats: &mut S,
+) -> bool {
+    let mut i = first as usize;
+    loop {
+        for &entry in &blocks[i].prims {
+            if entry == EMPTY {
+                break;
+            }
+            let prim = entry & !LAST;
+            tally.triangles += 1;
+            if let Some(h) = triangles[prim as usize].hit(ray, ray.tmin, *tmax, prim) {
+                if S::HITS {
+                    stats.hit(h);
+                } else if ANY {
+                    *best = Some(h);
+                    return true;
+                } else if h.beats(best) {
+                    *tmax = cull_distance(h.t);
+                    *best = Some(h);
+                }
+            }
+            if entry & LAST != 0 {
+                return false;
+            }
         }
         i += 1;
     }

@@ -175,11 +175,8 @@ impl SparseBvh {
 /// The other child of `n`'s parent (`n` is not the root).
 #[inline(always)]
 pub fn sibling(n: u32) -> u32 {
-    if n & 1 == 1 {
-        n + 1
-    } else {
-        n - 1
-    }
+    // Odd n (a left child): n + 1; even n: n - 1. No branch.
+    ((n - 1) ^ 1) + 1
 }
 
 /// An algorithm over the sparse layout.

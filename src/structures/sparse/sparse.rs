@@ -42,9 +42,12 @@ pub fn trace<S: Stats, const ANY: bool>(sp: &SparseBvh, ray: &Ray, stats: &mut S
             Step::Done => break,
         }
         level_index += 1;
-        while level_index & 1 == 0 {
+        // Up as many levels as `levelIndex` has trailing zeros: the count
+        // known before the first step, so that the loop's exit is no guess.
+        let up = level_index.trailing_zeros();
+        level_index >>= up;
+        for _ in 0..up {
             node = sp.parent(node);
-            level_index >>= 1;
         }
         if node == 0 {
             break;
