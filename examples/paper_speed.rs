@@ -51,12 +51,14 @@ fn main() {
         .into_iter()
         .filter(|(n, _, _)| only.as_deref().is_none_or(|o| o == *n))
         .map(|(name, t, s)| {
-            let built = if s {
-                Built::sparse(t, sp.clone()).unwrap()
-            } else {
-                Built::new(StructureKind::Bvh, t, &bvh, scene.triangles.clone())
-                    .unwrap()
-                    .0
+            let built = match s {
+                1 => Built::sparse(t, sp.clone()).unwrap(),
+                2 => Built::paired(t, sp.clone()).unwrap(),
+                _ => {
+                    Built::new(StructureKind::Bvh, t, &bvh, scene.triangles.clone())
+                        .unwrap()
+                        .0
+                }
             };
             (name, built)
         })
@@ -75,18 +77,26 @@ fn main() {
     }
 }
 
-fn raytree_rows() -> Vec<(&'static str, TraversalKind, bool)> {
+/// Rows: name, traversal, nodes (0 its own layout, 1 the sparse layout's
+/// own-box nodes, 2 the paper tracer's 64-byte nodes).
+fn raytree_rows() -> Vec<(&'static str, TraversalKind, u8)> {
     use TraversalKind::*;
     vec![
-        ("stack", Stack, false),
-        ("stack-sparse", Stack, true),
-        ("sparse", Sparse, true),
-        ("implicit-a", ImplicitA, false),
-        ("implicit-b", ImplicitB, false),
-        ("hapala", Hapala, true),
-        ("laine-0", Laine0, true),
-        ("laine-1", Laine1, true),
-        ("laine-2", Laine2, true),
-        ("laine-8", Laine8, true),
+        ("stack", Stack, 0),
+        ("stack-sparse", Stack, 1),
+        ("sparse", Sparse, 1),
+        ("implicit-a", ImplicitA, 0),
+        ("implicit-b", ImplicitB, 0),
+        ("hapala", Hapala, 1),
+        ("laine-0", Laine0, 1),
+        ("laine-1", Laine1, 1),
+        ("laine-2", Laine2, 1),
+        ("laine-8", Laine8, 1),
+        ("stack-paired", Stack, 2),
+        ("sparse-paired", Sparse, 2),
+        ("laine-0-paired", Laine0, 2),
+        ("laine-1-paired", Laine1, 2),
+        ("laine-2-paired", Laine2, 2),
+        ("laine-8-paired", Laine8, 2),
     ]
 }

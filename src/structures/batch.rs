@@ -292,6 +292,7 @@ impl Built {
             Built::Laine2(a) => Box::new(a),
             Built::Laine4(a) => Box::new(a),
             Built::Laine8(a) => Box::new(a),
+            Built::Paired(p) => p.tracer(),
             Built::ImplicitA(a) => Box::new(a),
             Built::ImplicitB(a) => Box::new(a),
             Built::Dst(a) => Box::new(a),

@@ -41,13 +41,13 @@ pub use dst::DualSplitTree;
 pub use htree::HTree;
 pub use implicit::ImplicitBvh;
 pub use registry::{
-    check, state_bytes, Built, LayoutOptions, StructureInfo, StructureKind, TraversalKind,
-    WithAccel,
+    check, state_bytes, Built, LayoutOptions, OnPaired, StructureInfo, StructureKind,
+    TraversalKind, WithAccel,
 };
 pub use shared::leaf::{leaf_triangles, LAST};
 pub use shared::simd::{self, SimdPath};
 pub use shared::{stack_capacity, MAX_STACK_DEPTH};
-pub use sparse::SparseBvh;
+pub use sparse::{PairedBvh, SparseBvh};
 pub use wide::{Bvh4, Bvh8, WideBvh};
 
 use crate::geometry::{Hit, Ray};

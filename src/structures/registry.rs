@@ -7,7 +7,9 @@ use super::dst::DstStats;
 use super::htree::HtreeStats;
 use super::implicit::{ImplicitA, ImplicitB, OnImplicit, DEFAULT_RESERVATION_LIMIT};
 use super::shared::stack_capacity;
-use super::sparse::{Hapala, Laine, OnSparse, Sparse, StackOnSparse};
+use super::sparse::{
+    Hapala, Laine, LayoutBytes, OnSparse, PairedBvh, Sparse, SparseLayout, StackOnSparse,
+};
 use super::{
     Accel, Bih, BinaryBvh, BruteForce, Bvh4, Bvh8, CompactBvh, CwBvh, DualSplitTree, HTree,
     ImplicitBvh, SparseBvh,
@@ -281,6 +283,9 @@ pub enum Built {
     Laine4(OnSparse<Laine<4>>),
     /// LAINE-8 over the sparse layout.
     Laine8(OnSparse<Laine<8>>),
+    /// STACK, SPARSE or LAINE-k over the stackless paper tracer's 64-byte
+    /// nodes ([`PairedBvh`]).
+    Paired(OnPaired),
     /// IMPLICIT-A: the stackless paper's Algorithm 2.
     ImplicitA(OnImplicit<ImplicitA>),
     /// IMPLICIT-B: the stackless paper's Algorithm 3.
@@ -431,6 +436,7 @@ impl Built {
             Built::Laine2(_) => (S::Bvh, T::Laine2, "sparse"),
             Built::Laine4(_) => (S::Bvh, T::Laine4, "sparse"),
             Built::Laine8(_) => (S::Bvh, T::Laine8, "sparse"),
+            Built::Paired(p) => (S::Bvh, p.traversal(), "paired"),
             Built::ImplicitA(_) => (S::Bvh, T::ImplicitA, "implicit"),
             Built::ImplicitB(_) => (S::Bvh, T::ImplicitB, "implicit"),
             Built::Dst(t) if t.rules().complete => (S::Dst, T::Stack, "dual-split"),
@@ -456,6 +462,7 @@ impl Built {
             Built::Laine2(a) => &a.layout,
             Built::Laine4(a) => &a.layout,
             Built::Laine8(a) => &a.layout,
+            Built::Paired(p) => p.layout().sparse_arc(),
             _ => return None,
         })
     }
@@ -488,6 +495,9 @@ impl Built {
             i.dst = Some(s.clone());
             i
         };
+        if let Built::Paired(p) = self {
+            return info(p.layout().node_bytes(), p.layout().sparse().index_bytes());
+        }
         if let Some(sp) = self.sparse_layout() {
             return info(sp.node_bytes(), sp.index_bytes());
         }
@@ -621,6 +631,30 @@ impl Built {
         Ok(built)
     }
 
+    /// Traversal `t` (STACK, SPARSE or LAINE-k) over the stackless paper
+    /// tracer's 64-byte nodes, derived from the sparse layout `sp`.
+    /// [`Error::Invalid`] for another traversal; [`Error::Limit`] for a
+    /// tree deeper than the traversal can follow.
+    pub fn paired(t: TraversalKind, sp: Arc<SparseBvh>) -> Result<Built> {
+        let l = Arc::new(PairedBvh::from_sparse(sp));
+        use TraversalKind::*;
+        Ok(Built::Paired(match t {
+            Stack => OnPaired::Stack(OnSparse::new(l)?),
+            Sparse => OnPaired::Sparse(OnSparse::new(l)?),
+            Laine0 => OnPaired::Laine0(OnSparse::new(l)?),
+            Laine1 => OnPaired::Laine1(OnSparse::new(l)?),
+            Laine2 => OnPaired::Laine2(OnSparse::new(l)?),
+            Laine4 => OnPaired::Laine4(OnSparse::new(l)?),
+            Laine8 => OnPaired::Laine8(OnSparse::new(l)?),
+            Hapala | ImplicitA | ImplicitB => {
+                return Err(Error::Invalid(format!(
+                    "{} does not run over the paired layout (STACK, SPARSE and LAINE-k do)",
+                    t.name()
+                )))
+            }
+        }))
+    }
+
     /// Traversal `t` over an existing sparse layout; STACK means STACK over
     /// the sparse layout here. [`Error::Invalid`] for IMPLICIT-A/B;
     /// [`Error::Limit`] for a tree deeper than the traversal can follow.
@@ -656,6 +690,7 @@ impl Built {
             Built::Laine2(a) => w.run(a),
             Built::Laine4(a) => w.run(a),
             Built::Laine8(a) => w.run(a),
+            Built::Paired(p) => p.with(w),
             Built::ImplicitA(a) => w.run(a),
             Built::ImplicitB(a) => w.run(a),
             Built::Dst(a) => w.run(a),
@@ -694,6 +729,80 @@ pub fn state_bytes(kind: TraversalKind, depth: u32) -> usize {
         Laine2 => laine(2),
         Laine4 => laine(4),
         Laine8 => laine(8),
+    }
+}
+
+/// A traversal over the stackless paper tracer's 64-byte nodes
+/// ([`Built::paired`]): one variant per algorithm, each monomorphized.
+pub enum OnPaired {
+    /// STACK.
+    Stack(OnSparse<StackOnSparse, PairedBvh>),
+    /// SPARSE.
+    Sparse(OnSparse<Sparse, PairedBvh>),
+    /// LAINE-0.
+    Laine0(OnSparse<Laine<0>, PairedBvh>),
+    /// LAINE-1.
+    Laine1(OnSparse<Laine<1>, PairedBvh>),
+    /// LAINE-2.
+    Laine2(OnSparse<Laine<2>, PairedBvh>),
+    /// LAINE-4.
+    Laine4(OnSparse<Laine<4>, PairedBvh>),
+    /// LAINE-8.
+    Laine8(OnSparse<Laine<8>, PairedBvh>),
+}
+
+impl OnPaired {
+    /// The traversal.
+    pub fn traversal(&self) -> TraversalKind {
+        use TraversalKind as T;
+        match self {
+            OnPaired::Stack(_) => T::Stack,
+            OnPaired::Sparse(_) => T::Sparse,
+            OnPaired::Laine0(_) => T::Laine0,
+            OnPaired::Laine1(_) => T::Laine1,
+            OnPaired::Laine2(_) => T::Laine2,
+            OnPaired::Laine4(_) => T::Laine4,
+            OnPaired::Laine8(_) => T::Laine8,
+        }
+    }
+
+    /// The layout.
+    pub fn layout(&self) -> &Arc<PairedBvh> {
+        match self {
+            OnPaired::Stack(a) => &a.layout,
+            OnPaired::Sparse(a) => &a.layout,
+            OnPaired::Laine0(a) => &a.layout,
+            OnPaired::Laine1(a) => &a.layout,
+            OnPaired::Laine2(a) => &a.layout,
+            OnPaired::Laine4(a) => &a.layout,
+            OnPaired::Laine8(a) => &a.layout,
+        }
+    }
+
+    /// Runs `w` on the traversal held, as its concrete type.
+    pub fn with<W: WithAccel>(&self, w: W) -> W::Output {
+        match self {
+            OnPaired::Stack(a) => w.run(a),
+            OnPaired::Sparse(a) => w.run(a),
+            OnPaired::Laine0(a) => w.run(a),
+            OnPaired::Laine1(a) => w.run(a),
+            OnPaired::Laine2(a) => w.run(a),
+            OnPaired::Laine4(a) => w.run(a),
+            OnPaired::Laine8(a) => w.run(a),
+        }
+    }
+
+    /// As a trait object for batches.
+    pub fn tracer(self) -> Box<dyn super::batch::Tracer> {
+        match self {
+            OnPaired::Stack(a) => Box::new(a),
+            OnPaired::Sparse(a) => Box::new(a),
+            OnPaired::Laine0(a) => Box::new(a),
+            OnPaired::Laine1(a) => Box::new(a),
+            OnPaired::Laine2(a) => Box::new(a),
+            OnPaired::Laine4(a) => Box::new(a),
+            OnPaired::Laine8(a) => Box::new(a),
+        }
     }
 }
 

@@ -9,10 +9,13 @@
 //! times with the counters compiled out, timed, the rows taking turns; the
 //! fastest counts.
 //!
-//! STACK runs twice: over the uncompressed 52-byte layout (`stack`) and over
-//! the 32-byte own-box nodes the stackless algorithms use (`stack-sparse`),
-//! which is the reference of the ratios: the paper gave every algorithm the
-//! same nodes.
+//! STACK runs over the uncompressed 52-byte layout (`stack`) and over the
+//! 32-byte own-box nodes the stackless algorithms use (`stack-sparse`),
+//! which is the reference of their ratios: the paper gave every algorithm
+//! the same nodes. The paper's own tracer stored every algorithm's tree in
+//! 64-byte nodes holding both children's boxes and a parent link; STACK,
+//! SPARSE and LAINE-k also run over those (`*-paired`, [`Nodes::Paired`]),
+//! their ratios taken to STACK on them (`stack-paired`).
 
 use raytree::bvh::{BuildOptions, BuildStats, Bvh};
 use raytree::error::Result;
@@ -75,23 +78,57 @@ impl Preset {
     }
 }
 
-/// The rows of Table 1, in the paper's order, plus STACK on the sparse nodes.
-pub const ROWS: [(&str, TraversalKind, bool); 11] = [
-    ("stack", TraversalKind::Stack, false),
-    ("stack-sparse", TraversalKind::Stack, true),
-    ("sparse", TraversalKind::Sparse, true),
-    ("implicit-a", TraversalKind::ImplicitA, false),
-    ("implicit-b", TraversalKind::ImplicitB, false),
-    ("hapala", TraversalKind::Hapala, true),
-    ("laine-0", TraversalKind::Laine0, true),
-    ("laine-1", TraversalKind::Laine1, true),
-    ("laine-2", TraversalKind::Laine2, true),
-    ("laine-4", TraversalKind::Laine4, true),
-    ("laine-8", TraversalKind::Laine8, true),
+/// The nodes a row's traversal runs over.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Nodes {
+    /// The traversal's own layout (binary for STACK, implicit for
+    /// IMPLICIT-A/B).
+    Own,
+    /// The sparse layout's 32-byte own-box nodes.
+    Sparse,
+    /// The stackless paper tracer's 64-byte nodes with both children's
+    /// boxes and a parent link (its supplemental `bvh.h`).
+    Paired,
+}
+
+/// The rows of Table 1, in the paper's order, plus STACK on the sparse
+/// nodes, then STACK, SPARSE and LAINE-k on the paper tracer's own 64-byte
+/// nodes.
+pub const ROWS: [(&str, TraversalKind, Nodes); 18] = [
+    ("stack", TraversalKind::Stack, Nodes::Own),
+    ("stack-sparse", TraversalKind::Stack, Nodes::Sparse),
+    ("sparse", TraversalKind::Sparse, Nodes::Sparse),
+    ("implicit-a", TraversalKind::ImplicitA, Nodes::Own),
+    ("implicit-b", TraversalKind::ImplicitB, Nodes::Own),
+    ("hapala", TraversalKind::Hapala, Nodes::Sparse),
+    ("laine-0", TraversalKind::Laine0, Nodes::Sparse),
+    ("laine-1", TraversalKind::Laine1, Nodes::Sparse),
+    ("laine-2", TraversalKind::Laine2, Nodes::Sparse),
+    ("laine-4", TraversalKind::Laine4, Nodes::Sparse),
+    ("laine-8", TraversalKind::Laine8, Nodes::Sparse),
+    ("stack-paired", TraversalKind::Stack, Nodes::Paired),
+    ("sparse-paired", TraversalKind::Sparse, Nodes::Paired),
+    ("laine-0-paired", TraversalKind::Laine0, Nodes::Paired),
+    ("laine-1-paired", TraversalKind::Laine1, Nodes::Paired),
+    ("laine-2-paired", TraversalKind::Laine2, Nodes::Paired),
+    ("laine-4-paired", TraversalKind::Laine4, Nodes::Paired),
+    ("laine-8-paired", TraversalKind::Laine8, Nodes::Paired),
 ];
 
-/// The row the ratios are taken to.
+/// The row the ratios of most rows are taken to: STACK on the sparse
+/// layout's nodes.
 pub const REFERENCE: &str = "stack-sparse";
+/// The row the paired rows' ratios are taken to: STACK on the same 64-byte
+/// nodes.
+pub const PAIRED_REFERENCE: &str = "stack-paired";
+
+/// The reference row of a row on `nodes`.
+pub fn reference(nodes: Nodes) -> &'static str {
+    match nodes {
+        Nodes::Paired => PAIRED_REFERENCE,
+        _ => REFERENCE,
+    }
+}
 
 #[derive(Clone, Debug, Serialize)]
 pub struct Row {
@@ -164,12 +201,14 @@ pub fn run_scene(scene: &Scene, opts: &Options, tick: &dyn Fn()) -> Result<Scene
     };
     let sparse = Arc::new(SparseBvh::from_bvh(&bvh, scene.triangles.clone())?);
     let mut built = Vec::new();
-    for (name, t, on_sparse) in ROWS {
-        let (b, info) = if on_sparse {
-            (Built::sparse(t, sparse.clone())?, "sparse")
-        } else {
-            let (b, i) = Built::new(StructureKind::Bvh, t, &bvh, scene.triangles.clone())?;
-            (b, i.layout)
+    for (name, t, nodes) in ROWS {
+        let (b, info) = match nodes {
+            Nodes::Sparse => (Built::sparse(t, sparse.clone())?, "sparse"),
+            Nodes::Paired => (Built::paired(t, sparse.clone())?, "paired"),
+            Nodes::Own => {
+                let (b, i) = Built::new(StructureKind::Bvh, t, &bvh, scene.triangles.clone())?;
+                (b, i.layout)
+            }
         };
         built.push((name, t, b, info));
     }
@@ -232,14 +271,17 @@ pub fn run_scene(scene: &Scene, opts: &Options, tick: &dyn Fn()) -> Result<Scene
             images.push(c.image);
         }
         let first = rows.len() - built.len();
-        let reference = ROWS
-            .iter()
-            .position(|r| r.0 == REFERENCE)
-            .expect("reference row");
-        let ref_seconds = rows[first + reference].seconds;
+        let times: Vec<f64> = rows[first..].iter().map(|r| r.seconds).collect();
+        let position = |name: &str| {
+            ROWS.iter()
+                .position(|r| r.0 == name)
+                .expect("reference row")
+        };
+        let stack = position(REFERENCE);
         for (k, row) in rows[first..].iter_mut().enumerate() {
-            row.ratio = row.seconds / ref_seconds;
-            row.same_image = images[k] == images[reference] && timed_same[k];
+            let reference = position(reference(ROWS[k].2));
+            row.ratio = row.seconds / times[reference];
+            row.same_image = images[k] == images[stack] && timed_same[k];
         }
     }
     Ok(SceneResult {

@@ -362,8 +362,9 @@ fn run_stackless(a: StacklessArgs) -> Result<()> {
     }
     bar.finish_and_clear();
     say!(
-        "ratio: time over {}'s (STACK on the same 32-byte nodes), same scene and threads; state B counts 4 bytes per 32-bit state variable (8 per 64-bit), a stack adds its head and 4 bytes per entry.",
-        stackless::REFERENCE
+        "ratio: time over STACK's on the same nodes, same scene and threads: {}'s (the 32-byte own-box nodes) for the binary, implicit and sparse rows, {}'s for the rows on the paper tracer's 64-byte nodes; state B counts 4 bytes per 32-bit state variable (8 per 64-bit), a stack adds its head and 4 bytes per entry.",
+        stackless::REFERENCE,
+        stackless::PAIRED_REFERENCE
     );
     if let Some(p) = &a.json {
         common::write_bench_json(p, &machine, &results)?;

@@ -369,6 +369,27 @@ fn bench_stackless_reports_every_algorithm() {
     for scene in scenes {
         let rows = scene["rows"].as_array().unwrap();
         assert_eq!(rows.len(), 2 * raytree_cli::bench::stackless::ROWS.len());
+        // On the paper tracer's 64-byte nodes each traversal visits the
+        // nodes it visits on the own-box ones: the same work per ray.
+        let row = |name: &str| {
+            rows.iter()
+                .find(|r| r["algorithm"] == name)
+                .unwrap_or_else(|| panic!("row {name}"))
+        };
+        for (paired, own) in [
+            ("stack-paired", "stack-sparse"),
+            ("sparse-paired", "sparse"),
+            ("laine-0-paired", "laine-0"),
+            ("laine-8-paired", "laine-8"),
+        ] {
+            for phase in ["eye", "ao"] {
+                assert_eq!(
+                    row(paired)[phase]["counters"],
+                    row(own)[phase]["counters"],
+                    "{paired} against {own}"
+                );
+            }
+        }
         for row in rows {
             let name = row["algorithm"].as_str().unwrap();
             assert!(

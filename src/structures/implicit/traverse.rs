@@ -23,7 +23,14 @@ pub fn implicit_a<S: Stats, const ANY: bool>(
         return None;
     }
     let slots = im.slots();
-    let mut w = Walk::<ANY>::enter(ray, slots, 1, &im.blocks, &im.triangles, stats)?;
+    let mut w = Walk::<ANY>::enter(
+        ray,
+        slots,
+        &slots[1].bounds,
+        &im.blocks,
+        &im.triangles,
+        stats,
+    )?;
     let (mut level_start, mut level_index, mut swap_mask) = (1u32, 0u32, 0u32);
     loop {
         let node = level_start
@@ -81,7 +88,14 @@ pub fn implicit_b<S: Stats, const ANY: bool>(
         return None;
     }
     let slots = im.slots();
-    let mut w = Walk::<ANY>::enter(ray, slots, 1, &im.blocks, &im.triangles, stats)?;
+    let mut w = Walk::<ANY>::enter(
+        ray,
+        slots,
+        &slots[1].bounds,
+        &im.blocks,
+        &im.triangles,
+        stats,
+    )?;
     let (mut index, mut level_index) = (1u32, 0u32);
     loop {
         // Node `index - 1` lives in slot `index`.

@@ -44,6 +44,91 @@ impl OwnBoxNode {
     }
 }
 
+/// A binary node record the walks step through ([`Walk`]): whether it is a
+/// leaf, its target (left child's slot or first leaf-list position), and
+/// where its two children's boxes are read from: their own records
+/// ([`OwnBoxNode`]) or the node's ([`ChildBoxNode`]).
+pub trait BinaryNode: Copy + Send + Sync + 'static {
+    /// Whether the record is a leaf.
+    fn is_leaf(&self) -> bool;
+    /// Left child's slot (inner) or first index-list position (leaf).
+    fn target(&self) -> u32;
+    /// Entry distances (`+inf` on a miss) of the children of inner node
+    /// `nodes[node]`, whose left child is at slot `left`.
+    fn test_children(
+        br: &BoxRay,
+        nodes: &[Self],
+        node: usize,
+        left: usize,
+        tmin: f32,
+        tmax: f32,
+    ) -> [f32; 2];
+}
+
+impl BinaryNode for OwnBoxNode {
+    #[inline(always)]
+    fn is_leaf(&self) -> bool {
+        OwnBoxNode::is_leaf(self)
+    }
+    #[inline(always)]
+    fn target(&self) -> u32 {
+        OwnBoxNode::target(self)
+    }
+    #[inline(always)]
+    fn test_children(
+        br: &BoxRay,
+        nodes: &[Self],
+        _node: usize,
+        left: usize,
+        tmin: f32,
+        tmax: f32,
+    ) -> [f32; 2] {
+        test_children(br, nodes, left, tmin, tmax)
+    }
+}
+
+/// The 64-byte node of the stackless paper's own tracer (its supplemental
+/// `Bvh::Node`: kind, parent, first, last and both children's boxes, 64
+/// bytes, cache-line aligned): a node holds its two children's boxes, so a
+/// step reads one record, and a parent link. `planes` are the children's
+/// boxes per axis, `[lo_left, lo_right, hi_left, hi_right]` for x, y, z
+/// (as [`BoxRay::test_pair`] reads them; zeros in a leaf); `link` and
+/// `extra` as in [`OwnBoxNode`].
+#[repr(C, align(64))]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct ChildBoxNode {
+    /// Both children's boxes per axis, in scene units (zeros in a leaf).
+    pub planes: [f32; 12],
+    /// Bit 31: leaf; bits 0–30: left child's slot or first index-list position.
+    pub link: u32,
+    /// The layout's word: parent and axis (sparse layout).
+    pub extra: u32,
+    /// Up to the cache line.
+    pub pad: [u32; 2],
+}
+
+impl BinaryNode for ChildBoxNode {
+    #[inline(always)]
+    fn is_leaf(&self) -> bool {
+        self.link & LEAF != 0
+    }
+    #[inline(always)]
+    fn target(&self) -> u32 {
+        self.link & !LEAF
+    }
+    #[inline(always)]
+    fn test_children(
+        br: &BoxRay,
+        nodes: &[Self],
+        node: usize,
+        _left: usize,
+        tmin: f32,
+        tmax: f32,
+    ) -> [f32; 2] {
+        br.test_pair(&nodes[node].planes, tmin, tmax)
+    }
+}
+
 /// Entry distances (`+inf` on a miss) of the sibling pair whose left node is
 /// `nodes[left]`.
 #[inline(always)]
@@ -121,32 +206,33 @@ pub enum Step {
 /// the closest hit so far, its tally) and the node step they all take. Each
 /// traversal keeps only its own state (a stack, a level index, a trail)
 /// beside it.
-pub struct Walk<'a, const ANY: bool> {
+pub struct Walk<'a, const ANY: bool, N: BinaryNode = OwnBoxNode> {
     br: BoxRay,
     ray: &'a Ray,
     tmin: f32,
     tmax: f32,
     best: Option<Hit>,
     tally: Tally,
-    nodes: &'a [OwnBoxNode],
+    nodes: &'a [N],
     leaves: &'a LeafBlocks,
     triangles: &'a [Triangle],
 }
 
-impl<'a, const ANY: bool> Walk<'a, ANY> {
-    /// Tests the root box `nodes[root]` (6 plane tests); `None` when the ray
-    /// misses it (its tally then handed to `stats`). `leaves` holds the
-    /// leaf list's triangle blocks and `triangles` the mesh's.
+impl<'a, const ANY: bool, N: BinaryNode> Walk<'a, ANY, N> {
+    /// Tests the root's box `root` (`[min xyz, max xyz]`, 6 plane tests);
+    /// `None` when the ray misses it (its tally then handed to `stats`).
+    /// `leaves` holds the leaf list's triangle blocks and `triangles` the
+    /// mesh's.
     #[inline(always)]
     pub fn enter<S: Stats>(
         ray: &'a Ray,
-        nodes: &'a [OwnBoxNode],
-        root: usize,
+        nodes: &'a [N],
+        root: &[f32; 6],
         leaves: &'a LeafBlocks,
         triangles: &'a [Triangle],
         stats: &mut S,
     ) -> Option<Self> {
-        let (br, tally) = enter(ray, &nodes[root].bounds, stats)?;
+        let (br, tally) = enter(ray, root, stats)?;
         Some(Walk {
             br,
             ray,
@@ -168,7 +254,7 @@ impl<'a, const ANY: bool> Walk<'a, ANY> {
     pub fn step<S: Stats>(
         &mut self,
         node: usize,
-        children: impl FnOnce(&OwnBoxNode) -> u32,
+        children: impl FnOnce(&N) -> u32,
         id: impl FnOnce() -> u32,
         stats: &mut S,
     ) -> Step {
@@ -193,7 +279,14 @@ impl<'a, const ANY: bool> Walk<'a, ANY> {
         }
         self.tally.planes += 2 * OwnBoxNode::PLANES;
         let left = children(n);
-        let [tl, tr] = test_children(&self.br, self.nodes, left as usize, self.tmin, self.tmax);
+        let [tl, tr] = N::test_children(
+            &self.br,
+            self.nodes,
+            node,
+            left as usize,
+            self.tmin,
+            self.tmax,
+        );
         Step::Inner {
             left,
             children: Children::of(tl, tr),
@@ -214,5 +307,11 @@ mod tests {
     fn is_32_bytes() {
         assert_eq!(std::mem::size_of::<super::OwnBoxNode>(), 32);
         assert_eq!(std::mem::align_of::<super::OwnBoxNode>(), 32);
+    }
+
+    #[test]
+    fn child_box_node_is_one_cache_line() {
+        assert_eq!(std::mem::size_of::<super::ChildBoxNode>(), 64);
+        assert_eq!(std::mem::align_of::<super::ChildBoxNode>(), 64);
     }
 }

@@ -8,36 +8,31 @@
 //! The trail, level and pop level are 64 bits (root at bit 63): trees up to
 //! depth 63.
 
-use super::SparseBvh;
+use super::SparseLayout;
 use crate::geometry::{Hit, Ray};
 use crate::stats::Stats;
-use crate::structures::shared::own_box::{Children, Step, Walk};
+use crate::structures::shared::own_box::{BinaryNode, Children, Step};
 
 const ROOT_LEVEL: u64 = 1 << 63;
 
 /// Closest hit (`ANY = false`) or any hit, with a short stack of `K`.
 #[inline]
-pub fn trace<S: Stats, const ANY: bool, const K: usize>(
-    sp: &SparseBvh,
+pub fn trace<L: SparseLayout, S: Stats, const ANY: bool, const K: usize>(
+    sp: &L,
     ray: &Ray,
     stats: &mut S,
 ) -> Option<Hit> {
     if sp.is_empty() {
         return None;
     }
-    let mut w = Walk::<ANY>::enter(ray, &sp.nodes, 0, &sp.blocks, &sp.triangles, stats)?;
+    let mut w = sp.walk::<ANY, S>(ray, stats)?;
     let mut node = 0u32;
     let (mut trail, mut level, mut pop_level) = (0u64, ROOT_LEVEL, 0u64);
     // Short stack; when full, the oldest entry is dropped.
     let mut short = [0u32; 8];
     let mut head = 0usize;
     loop {
-        match w.step(
-            node as usize,
-            |n| n.target(),
-            || sp.ids[node as usize],
-            stats,
-        ) {
+        match w.step(node as usize, BinaryNode::target, || sp.id(node), stats) {
             Step::Inner { left, children } => match children {
                 Children::Both { right_first } => {
                     let (near, far) = if right_first {

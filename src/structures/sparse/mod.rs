@@ -8,12 +8,13 @@
 
 mod hapala;
 mod laine;
+mod paired;
 mod saved;
 #[allow(clippy::module_inception)]
 mod sparse;
 mod stack;
 
-use super::shared::own_box::{OwnBoxNode, LEAF};
+use super::shared::own_box::{BinaryNode, OwnBoxNode, Walk, LEAF};
 use super::{Accel, TraversalKind};
 use crate::bvh::{Bvh, NodeKind, ROOT};
 use crate::error::{Error, Result};
@@ -179,19 +180,74 @@ pub fn sibling(n: u32) -> u32 {
     ((n - 1) ^ 1) + 1
 }
 
-/// An algorithm over the sparse layout.
-pub trait SparseAlgorithm: Send + Sync + 'static {
+pub use paired::PairedBvh;
+
+/// A sparse layout: the canonical tree's nodes in slots, the root at slot
+/// 0, each sibling pair adjacent with the left child at an odd slot, and
+/// parent links. STACK, SPARSE and LAINE-k run over any of them: the
+/// own-box nodes ([`SparseBvh`]) or the stackless paper's own tracer's
+/// 64-byte nodes with both children's boxes ([`PairedBvh`]).
+pub trait SparseLayout: Send + Sync + 'static {
+    /// The node record.
+    type Node: BinaryNode;
+    /// The own-box layout (its leaf blocks, triangles, depth and ids).
+    fn sparse(&self) -> &SparseBvh;
+    /// Enters the walk at the root (its box tested); `None` on a miss.
+    fn walk<'a, const ANY: bool, S: Stats>(
+        &'a self,
+        ray: &'a Ray,
+        stats: &mut S,
+    ) -> Option<Walk<'a, ANY, Self::Node>>;
+    /// The parent of slot `n` (not the root).
+    fn parent(&self, n: u32) -> u32;
+    /// The canonical id of slot `n` (for visit logs).
+    #[inline(always)]
+    fn id(&self, n: u32) -> u32 {
+        self.sparse().ids[n as usize]
+    }
+    /// Whether the tree holds no triangles.
+    #[inline(always)]
+    fn is_empty(&self) -> bool {
+        self.sparse().index.is_empty()
+    }
+}
+
+impl SparseLayout for SparseBvh {
+    type Node = OwnBoxNode;
+    #[inline(always)]
+    fn sparse(&self) -> &SparseBvh {
+        self
+    }
+    #[inline(always)]
+    fn walk<'a, const ANY: bool, S: Stats>(
+        &'a self,
+        ray: &'a Ray,
+        stats: &mut S,
+    ) -> Option<Walk<'a, ANY, OwnBoxNode>> {
+        Walk::enter(
+            ray,
+            &self.nodes,
+            &self.nodes[0].bounds,
+            &self.blocks,
+            &self.triangles,
+            stats,
+        )
+    }
+    #[inline(always)]
+    fn parent(&self, n: u32) -> u32 {
+        SparseBvh::parent(self, n)
+    }
+}
+
+/// An algorithm over a sparse layout `L`.
+pub trait SparseAlgorithm<L = SparseBvh>: Send + Sync + 'static {
     /// The traversal's registry entry.
     const KIND: TraversalKind;
     /// Deepest tree the algorithm's integers address.
     const MAX_DEPTH: u32;
     /// Traces `ray` over `layout`: the closest hit, or with `ANY` the first
     /// hit found.
-    fn trace<S: Stats, const ANY: bool>(
-        layout: &SparseBvh,
-        ray: &Ray,
-        stats: &mut S,
-    ) -> Option<Hit>;
+    fn trace<S: Stats, const ANY: bool>(layout: &L, ray: &Ray, stats: &mut S) -> Option<Hit>;
 }
 
 /// STACK over the sparse layout (for ratios on the same nodes).
@@ -203,24 +259,26 @@ pub struct Hapala;
 /// LAINE-k with a short stack of `K` (0, 1, 2, 4 or 8) entries.
 pub struct Laine<const K: usize>;
 
-impl SparseAlgorithm for StackOnSparse {
+impl<L: SparseLayout> SparseAlgorithm<L> for StackOnSparse {
     const KIND: TraversalKind = TraversalKind::Stack;
     const MAX_DEPTH: u32 = crate::structures::shared::MAX_STACK_DEPTH as u32 - 1;
     #[inline(always)]
-    fn trace<S: Stats, const ANY: bool>(l: &SparseBvh, r: &Ray, s: &mut S) -> Option<Hit> {
-        stack::trace::<S, ANY>(l, r, s)
+    fn trace<S: Stats, const ANY: bool>(l: &L, r: &Ray, s: &mut S) -> Option<Hit> {
+        stack::trace::<L, S, ANY>(l, r, s)
     }
 }
 
-impl SparseAlgorithm for Sparse {
+impl<L: SparseLayout> SparseAlgorithm<L> for Sparse {
     const KIND: TraversalKind = TraversalKind::Sparse;
     const MAX_DEPTH: u32 = 63;
     #[inline(always)]
-    fn trace<S: Stats, const ANY: bool>(l: &SparseBvh, r: &Ray, s: &mut S) -> Option<Hit> {
-        sparse::trace::<S, ANY>(l, r, s)
+    fn trace<S: Stats, const ANY: bool>(l: &L, r: &Ray, s: &mut S) -> Option<Hit> {
+        sparse::trace::<L, S, ANY>(l, r, s)
     }
 }
 
+/// HAPALA tests one box at a time (the sibling's on the way back), so it
+/// runs over the own-box nodes only.
 impl SparseAlgorithm for Hapala {
     const KIND: TraversalKind = TraversalKind::Hapala;
     const MAX_DEPTH: u32 = u32::MAX;
@@ -230,7 +288,7 @@ impl SparseAlgorithm for Hapala {
     }
 }
 
-impl<const K: usize> SparseAlgorithm for Laine<K> {
+impl<L: SparseLayout, const K: usize> SparseAlgorithm<L> for Laine<K> {
     const KIND: TraversalKind = match K {
         0 => TraversalKind::Laine0,
         1 => TraversalKind::Laine1,
@@ -241,26 +299,27 @@ impl<const K: usize> SparseAlgorithm for Laine<K> {
     };
     const MAX_DEPTH: u32 = 63;
     #[inline(always)]
-    fn trace<S: Stats, const ANY: bool>(l: &SparseBvh, r: &Ray, s: &mut S) -> Option<Hit> {
-        laine::trace::<S, ANY, K>(l, r, s)
+    fn trace<S: Stats, const ANY: bool>(l: &L, r: &Ray, s: &mut S) -> Option<Hit> {
+        laine::trace::<L, S, ANY, K>(l, r, s)
     }
 }
 
 /// A sparse-layout algorithm with its layout (shared between algorithms).
-pub struct OnSparse<A: SparseAlgorithm> {
+pub struct OnSparse<A: SparseAlgorithm<L>, L: SparseLayout = SparseBvh> {
     /// The layout, shared with other algorithms over it.
-    pub layout: Arc<SparseBvh>,
+    pub layout: Arc<L>,
     _a: PhantomData<A>,
 }
 
-impl<A: SparseAlgorithm> OnSparse<A> {
+impl<A: SparseAlgorithm<L>, L: SparseLayout> OnSparse<A, L> {
     /// `A` over `layout`; [`Error::Limit`] for a tree deeper than
     /// [`SparseAlgorithm::MAX_DEPTH`].
-    pub fn new(layout: Arc<SparseBvh>) -> crate::error::Result<Self> {
-        if layout.depth > A::MAX_DEPTH {
+    pub fn new(layout: Arc<L>) -> crate::error::Result<Self> {
+        let depth = layout.sparse().depth;
+        if depth > A::MAX_DEPTH {
             return Err(crate::error::Error::Limit(format!(
                 "BVH depth {} exceeds {}'s limit of {} levels; use the hybrid builder (--builder hybrid)",
-                layout.depth,
+                depth,
                 A::KIND.name(),
                 A::MAX_DEPTH
             )));
@@ -272,12 +331,24 @@ impl<A: SparseAlgorithm> OnSparse<A> {
     }
 }
 
-impl<A: SparseAlgorithm> Accel for OnSparse<A> {
+/// The bytes a layout's traversal reads: its nodes and the index list.
+pub trait LayoutBytes {
+    /// Node bytes.
+    fn node_bytes(&self) -> usize;
+}
+
+impl LayoutBytes for SparseBvh {
+    fn node_bytes(&self) -> usize {
+        SparseBvh::node_bytes(self)
+    }
+}
+
+impl<A: SparseAlgorithm<L>, L: SparseLayout + LayoutBytes> Accel for OnSparse<A, L> {
     fn name(&self) -> &'static str {
         "bvh"
     }
     fn bytes(&self) -> usize {
-        self.layout.node_bytes() + self.layout.index_bytes()
+        self.layout.node_bytes() + self.layout.sparse().index_bytes()
     }
     fn closest_hit<S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
         A::trace::<S, false>(&self.layout, ray, stats)

@@ -3,27 +3,26 @@
 //! ascending follows parent links while `levelIndex` is even, then moves to
 //! the sibling. Visits exactly the nodes STACK visits, in the same order.
 
-use super::{sibling, SparseBvh};
+use super::{sibling, SparseLayout};
 use crate::geometry::{Hit, Ray};
 use crate::stats::Stats;
-use crate::structures::shared::own_box::{Children, Step, Walk};
+use crate::structures::shared::own_box::{BinaryNode, Children, Step};
 
 /// Closest hit (`ANY = false`) or any hit. `levelIndex` is 64 bits wide:
 /// trees up to depth 63.
 #[inline]
-pub fn trace<S: Stats, const ANY: bool>(sp: &SparseBvh, ray: &Ray, stats: &mut S) -> Option<Hit> {
+pub fn trace<L: SparseLayout, S: Stats, const ANY: bool>(
+    sp: &L,
+    ray: &Ray,
+    stats: &mut S,
+) -> Option<Hit> {
     if sp.is_empty() {
         return None;
     }
-    let mut w = Walk::<ANY>::enter(ray, &sp.nodes, 0, &sp.blocks, &sp.triangles, stats)?;
+    let mut w = sp.walk::<ANY, S>(ray, stats)?;
     let (mut node, mut level_index) = (0u32, 0u64);
     loop {
-        match w.step(
-            node as usize,
-            |n| n.target(),
-            || sp.ids[node as usize],
-            stats,
-        ) {
+        match w.step(node as usize, BinaryNode::target, || sp.id(node), stats) {
             Step::Inner { left, children } => match children {
                 Children::Both { right_first } => {
                     level_index <<= 1;

@@ -2,38 +2,37 @@
 //! uncompressed BVH's STACK): the same algorithm on the nodes the stackless
 //! traversals use, so that timing ratios compare algorithms, not layouts.
 
-use super::SparseBvh;
+use super::SparseLayout;
 use crate::geometry::{Hit, Ray};
 use crate::stats::Stats;
-use crate::structures::shared::own_box::{Children, Step, Walk};
+use crate::structures::shared::own_box::{BinaryNode, Children, Step};
 use crate::structures::shared::with_stack;
 
 /// Closest hit (`ANY = false`) or any hit (`ANY = true`).
 #[inline]
-pub fn trace<S: Stats, const ANY: bool>(sp: &SparseBvh, ray: &Ray, stats: &mut S) -> Option<Hit> {
-    with_stack!(sp.depth, trace_n::<S; ANY>(sp, ray, stats))
+pub fn trace<L: SparseLayout, S: Stats, const ANY: bool>(
+    sp: &L,
+    ray: &Ray,
+    stats: &mut S,
+) -> Option<Hit> {
+    with_stack!(sp.sparse().depth, trace_n::<L, S; ANY>(sp, ray, stats))
 }
 
 #[inline]
-fn trace_n<S: Stats, const ANY: bool, const N: usize>(
-    sp: &SparseBvh,
+fn trace_n<L: SparseLayout, S: Stats, const ANY: bool, const N: usize>(
+    sp: &L,
     ray: &Ray,
     stats: &mut S,
 ) -> Option<Hit> {
     if sp.is_empty() {
         return None;
     }
-    let mut w = Walk::<ANY>::enter(ray, &sp.nodes, 0, &sp.blocks, &sp.triangles, stats)?;
+    let mut w = sp.walk::<ANY, S>(ray, stats)?;
     let mut stack = [0u32; N];
     let mut top = 0;
     let mut node = 0u32;
     loop {
-        match w.step(
-            node as usize,
-            |n| n.target(),
-            || sp.ids[node as usize],
-            stats,
-        ) {
+        match w.step(node as usize, BinaryNode::target, || sp.id(node), stats) {
             Step::Inner { left, children } => match children {
                 Children::Both { right_first } => {
                     let (near, far) = if right_first {

@@ -1,0 +1,203 @@
+//! The sparse layout as the stackless paper's own tracer stores it (its
+//! supplemental `bvh.h`: `Node { kind, parent, first, last, Aabb left,
+//! right }`, 64 bytes in a 64-byte aligned array): the same slots, sibling
+//! pairs and parent links as [`SparseBvh`], but each node holds its two
+//! children's boxes ([`ChildBoxNode`]), so that a step reads one cache line
+//! instead of a node and then its children's pair.
+//!
+//! STACK, SPARSE and LAINE-k run over it unchanged ([`super::SparseLayout`])
+//! and visit exactly the nodes they visit over the own-box nodes, in the
+//! same order. It is derived from a [`SparseBvh`], whose leaf blocks,
+//! triangles and ids it shares.
+
+use super::{LayoutBytes, SparseBvh, SparseLayout, PARENT_MASK};
+use crate::geometry::Ray;
+use crate::stats::Stats;
+use crate::structures::shared::own_box::{ChildBoxNode, Walk};
+use std::sync::Arc;
+
+/// The sparse layout in 64-byte nodes that hold their children's boxes
+/// (see the module docs).
+#[derive(Clone, Debug)]
+pub struct PairedBvh {
+    nodes: Vec<ChildBoxNode>,
+    /// The root's own box (`[min xyz, max xyz]`), which no node holds.
+    root: [f32; 6],
+    sparse: Arc<SparseBvh>,
+}
+
+impl PairedBvh {
+    /// The 64-byte nodes of `sparse`'s slots: each inner node's record
+    /// holds its children's boxes per axis, `[lo_left, lo_right, hi_left,
+    /// hi_right]`; links and parent words are `sparse`'s.
+    pub fn from_sparse(sparse: Arc<SparseBvh>) -> Self {
+        let own = &sparse.nodes;
+        let nodes = own
+            .iter()
+            .map(|n| {
+                let mut planes = [0.0; 12];
+                if !n.is_leaf() {
+                    let (l, r) = (&own[n.target() as usize], &own[n.target() as usize + 1]);
+                    for a in 0..3 {
+                        planes[4 * a..4 * a + 4].copy_from_slice(&[
+                            l.bounds[a],
+                            r.bounds[a],
+                            l.bounds[a + 3],
+                            r.bounds[a + 3],
+                        ]);
+                    }
+                }
+                ChildBoxNode {
+                    planes,
+                    link: n.link,
+                    extra: n.extra,
+                    pad: [0; 2],
+                }
+            })
+            .collect();
+        PairedBvh {
+            nodes,
+            root: own[0].bounds,
+            sparse,
+        }
+    }
+
+    /// The own-box layout it was derived from (leaf blocks, triangles, ids).
+    pub fn sparse_arc(&self) -> &Arc<SparseBvh> {
+        &self.sparse
+    }
+
+    /// The nodes, as the traversals read them (root at slot 0).
+    pub fn nodes(&self) -> &[ChildBoxNode] {
+        &self.nodes
+    }
+}
+
+impl LayoutBytes for PairedBvh {
+    /// 64 bytes per node.
+    fn node_bytes(&self) -> usize {
+        std::mem::size_of_val(&self.nodes[..])
+    }
+}
+
+impl SparseLayout for PairedBvh {
+    type Node = ChildBoxNode;
+    #[inline(always)]
+    fn sparse(&self) -> &SparseBvh {
+        &self.sparse
+    }
+    #[inline(always)]
+    fn walk<'a, const ANY: bool, S: Stats>(
+        &'a self,
+        ray: &'a Ray,
+        stats: &mut S,
+    ) -> Option<Walk<'a, ANY, ChildBoxNode>> {
+        Walk::enter(
+            ray,
+            &self.nodes,
+            &self.root,
+            &self.sparse.blocks,
+            &self.sparse.triangles,
+            stats,
+        )
+    }
+    #[inline(always)]
+    fn parent(&self, n: u32) -> u32 {
+        self.nodes[n as usize].extra & PARENT_MASK
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bvh::{BuildOptions, Bvh};
+    use crate::geometry::Aabb;
+    use crate::scene::Scene;
+    use crate::stats::VisitLog;
+    use crate::structures::sparse::{Laine, OnSparse, Sparse, StackOnSparse};
+    use crate::structures::Accel;
+
+    fn layouts() -> (Scene, Arc<SparseBvh>, Arc<PairedBvh>) {
+        let scene = Scene::builtin("chess:4000").unwrap();
+        let bvh = Bvh::build(&scene.triangles, &BuildOptions::hybrid());
+        let sp = Arc::new(SparseBvh::from_bvh(&bvh, scene.triangles.clone()).unwrap());
+        let pa = Arc::new(PairedBvh::from_sparse(sp.clone()));
+        (scene, sp, pa)
+    }
+
+    /// Every inner record holds exactly its children's own boxes, links
+    /// and parents are the own-box layout's, and a node is 64 bytes.
+    #[test]
+    fn records_hold_the_childrens_boxes() {
+        let (_, sp, pa) = layouts();
+        assert_eq!(pa.node_bytes(), 64 * sp.node_count());
+        for (i, (p, o)) in pa.nodes.iter().zip(&sp.nodes).enumerate() {
+            assert_eq!((p.link, p.extra), (o.link, o.extra));
+            if i > 0 {
+                assert_eq!(pa.parent(i as u32), sp.parent(i as u32));
+            }
+            if o.is_leaf() {
+                assert_eq!(p.planes, [0.0; 12]);
+                continue;
+            }
+            let l = o.target() as usize;
+            for (k, child) in [l, l + 1].into_iter().enumerate() {
+                let b: Vec<f32> = (0..6)
+                    .map(|j| p.planes[4 * (j % 3) + 2 * (j / 3) + k])
+                    .collect();
+                assert_eq!(Aabb::from_array(&b.try_into().unwrap()), {
+                    Aabb::from_array(&sp.nodes[child].bounds)
+                });
+            }
+        }
+    }
+
+    /// STACK, SPARSE and LAINE-k over the 64-byte nodes visit the nodes they
+    /// visit over the own-box nodes, in the same order, and find the same
+    /// hits.
+    #[test]
+    fn visits_and_hits_equal_the_own_box_layouts() {
+        let (scene, sp, pa) = layouts();
+        let eye = crate::render::rayset::eye_rays(&scene, 24, 16, 1);
+        let b = Bvh::build(&scene.triangles, &BuildOptions::hybrid());
+        let bin = crate::structures::BinaryBvh::from_bvh(&b, scene.triangles.clone()).unwrap();
+        let ao = crate::render::rayset::ao_rays(&scene, &bin, &eye, 4, 30.0);
+        fn check<
+            A: crate::structures::sparse::SparseAlgorithm<SparseBvh>
+                + crate::structures::sparse::SparseAlgorithm<PairedBvh>,
+        >(
+            sp: &Arc<SparseBvh>,
+            pa: &Arc<PairedBvh>,
+            rays: &[Ray],
+        ) -> usize {
+            let (a, b) = (
+                OnSparse::<A, SparseBvh>::new(sp.clone()).unwrap(),
+                OnSparse::<A, PairedBvh>::new(pa.clone()).unwrap(),
+            );
+            let mut hits = 0;
+            for r in rays {
+                for any in [false, true] {
+                    let (mut la, mut lb) = (VisitLog::default(), VisitLog::default());
+                    let (ha, hb) = if any {
+                        (a.any_hit(r, &mut la), b.any_hit(r, &mut lb))
+                    } else {
+                        (a.closest_hit(r, &mut la), b.closest_hit(r, &mut lb))
+                    };
+                    assert_eq!(ha, hb);
+                    assert_eq!(la.visits, lb.visits);
+                    hits += ha.is_some() as usize;
+                }
+            }
+            hits
+        }
+        let rays: Vec<Ray> = eye.iter().chain(&ao).copied().collect();
+        for hits in [
+            check::<StackOnSparse>(&sp, &pa, &rays),
+            check::<Sparse>(&sp, &pa, &rays),
+            check::<Laine<0>>(&sp, &pa, &rays),
+            check::<Laine<2>>(&sp, &pa, &rays),
+        ] {
+            assert!(hits > rays.len() / 4, "{hits} hits of {}", 2 * rays.len());
+        }
+    }
+}
