@@ -65,14 +65,8 @@ pub fn intersect_leaf<const ANY: bool, S: Stats>(
         let prim = entry & !LAST;
         tally.triangles += 1;
         if let Some(h) = triangles[prim as usize].hit(ray, ray.tmin, *tmax, prim) {
-            if S::HITS {
-                stats.hit(h);
-            } else if ANY {
-                *best = Some(h);
+            if take_hit::<ANY, S>(h, tmax, best, stats) {
                 return true;
-            } else if h.beats(best) {
-                *tmax = cull_distance(h.t);
-                *best = Some(h);
             }
         }
         if entry & LAST != 0 {
@@ -80,6 +74,29 @@ pub fn intersect_leaf<const ANY: bool, S: Stats>(
         }
         i += 1;
     }
+}
+
+/// The leaf list's rule for one hit `h` of a leaf test: a sink that wants
+/// every hit ([`Stats::HITS`]) gets it; an any-hit trace (`ANY`) keeps it
+/// and is done (`true`); a closest-hit trace keeps it if it beats `best`
+/// (the tie rule) and shrinks `tmax` to its [`cull_distance`].
+#[inline(always)]
+pub fn take_hit<const ANY: bool, S: Stats>(
+    h: Hit,
+    tmax: &mut f32,
+    best: &mut Option<Hit>,
+    stats: &mut S,
+) -> bool {
+    if S::HITS {
+        stats.hit(h);
+    } else if ANY {
+        *best = Some(h);
+        return true;
+    } else if h.beats(best) {
+        *tmax = cull_distance(h.t);
+        *best = Some(h);
+    }
+    false
 }
 
 /// The root box test every BVH traversal begins with (6 plane tests): the

@@ -12,7 +12,7 @@
 //! tie rule, any hit, every hit), so a leaf answers as
 //! [`super::leaf::intersect_leaf`] does, ray for ray.
 
-use super::leaf::{cull_distance, LAST};
+use super::leaf::{take_hit, LAST};
 use crate::geometry::{Hit, Ray, Triangle, ILL_CONDITIONED, TINY_DETERMINANT, TINY_SCALE};
 use crate::stats::{Stats, Tally};
 use glam::Vec4;
@@ -307,15 +307,9 @@ pub fn intersect_blocks_with<const ANY: bool, S: Stats>(
                 }
             };
             if let Some(h) = hit {
-                if S::HITS {
-                    stats.hit(h);
-                } else if ANY {
+                if take_hit::<ANY, S>(h, tmax, best, stats) {
                     tally.triangles += l as u32 + 1;
-                    *best = Some(h);
                     return true;
-                } else if h.beats(best) {
-                    *tmax = cull_distance(h.t);
-                    *best = Some(h);
                 }
             }
         }
@@ -353,14 +347,8 @@ fn scalar_blocks<const ANY: bool, S: Stats>(
             let prim = entry & !LAST;
             tally.triangles += 1;
             if let Some(h) = triangles[prim as usize].hit(ray, ray.tmin, *tmax, prim) {
-                if S::HITS {
-                    stats.hit(h);
-                } else if ANY {
-                    *best = Some(h);
+                if take_hit::<ANY, S>(h, tmax, best, stats) {
                     return true;
-                } else if h.beats(best) {
-                    *tmax = cull_distance(h.t);
-                    *best = Some(h);
                 }
             }
             if entry & LAST != 0 {
