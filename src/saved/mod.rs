@@ -21,7 +21,7 @@
 //! | 28 | 4 | number of sections (at most 32) |
 //! | 32 | 16 | structure name (`bvh`, `dst`, ...), ASCII, NUL padded |
 //! | 48 | 16 | traversal name (`stack`, `laine-4`, ...) |
-//! | 64 | 16 | layout (`binary`, `sparse`, `implicit`, `dual-split`, ...) |
+//! | 64 | 16 | layout (`binary`, `sparse`, `paired` (saved as the sparse arrays), `implicit`, `dual-split`, ...) |
 //! | 80 | 16 | BVH builder (`sah`, `hybrid`) |
 //! | 96 | 4 | the BVH's largest leaf size allowed |
 //! | 100 | 4 | zero |

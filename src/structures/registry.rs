@@ -7,9 +7,7 @@ use super::dst::DstStats;
 use super::htree::HtreeStats;
 use super::implicit::{ImplicitA, ImplicitB, OnImplicit, DEFAULT_RESERVATION_LIMIT};
 use super::shared::stack_capacity;
-use super::sparse::{
-    Hapala, Laine, LayoutBytes, OnSparse, PairedBvh, Sparse, SparseLayout, StackOnSparse,
-};
+use super::sparse::{Hapala, Laine, OnSparse, PairedBvh, Sparse, SparseLayout, StackOnSparse};
 use super::{
     Accel, Bih, BinaryBvh, BruteForce, Bvh4, Bvh8, CompactBvh, CwBvh, DualSplitTree, HTree,
     ImplicitBvh, SparseBvh,
@@ -607,6 +605,8 @@ impl Built {
                 Built::sparse(t, Arc::new(SparseBvh::load(s, triangles)?))
                     .map_err(|e| e.to_string())?
             }
+            (S::Bvh, t, "paired") => Built::paired(t, Arc::new(SparseBvh::load(s, triangles)?))
+                .map_err(|e| e.to_string())?,
             (S::Dst, _, "dual-split") => {
                 Built::Dst(DualSplitTree::load(s, triangles, Rules::IDENTICAL)?)
             }

@@ -200,6 +200,8 @@ pub trait SparseLayout: Send + Sync + 'static {
     ) -> Option<Walk<'a, ANY, Self::Node>>;
     /// The parent of slot `n` (not the root).
     fn parent(&self, n: u32) -> u32;
+    /// Bytes of the node records (the index list is the own-box layout's).
+    fn node_bytes(&self) -> usize;
     /// The canonical id of slot `n` (for visit logs).
     #[inline(always)]
     fn id(&self, n: u32) -> u32 {
@@ -236,6 +238,9 @@ impl SparseLayout for SparseBvh {
     #[inline(always)]
     fn parent(&self, n: u32) -> u32 {
         SparseBvh::parent(self, n)
+    }
+    fn node_bytes(&self) -> usize {
+        SparseBvh::node_bytes(self)
     }
 }
 
@@ -331,19 +336,7 @@ impl<A: SparseAlgorithm<L>, L: SparseLayout> OnSparse<A, L> {
     }
 }
 
-/// The bytes a layout's traversal reads: its nodes and the index list.
-pub trait LayoutBytes {
-    /// Node bytes.
-    fn node_bytes(&self) -> usize;
-}
-
-impl LayoutBytes for SparseBvh {
-    fn node_bytes(&self) -> usize {
-        SparseBvh::node_bytes(self)
-    }
-}
-
-impl<A: SparseAlgorithm<L>, L: SparseLayout + LayoutBytes> Accel for OnSparse<A, L> {
+impl<A: SparseAlgorithm<L>, L: SparseLayout> Accel for OnSparse<A, L> {
     fn name(&self) -> &'static str {
         "bvh"
     }

@@ -8,9 +8,10 @@
 //! STACK, SPARSE and LAINE-k run over it unchanged ([`super::SparseLayout`])
 //! and visit exactly the nodes they visit over the own-box nodes, in the
 //! same order. It is derived from a [`SparseBvh`], whose leaf blocks,
-//! triangles and ids it shares.
+//! triangles and ids it shares; a saved file holds that layout's arrays
+//! and derives the 64-byte nodes again when loaded.
 
-use super::{LayoutBytes, SparseBvh, SparseLayout, PARENT_MASK};
+use super::{SparseBvh, SparseLayout, PARENT_MASK};
 use crate::geometry::Ray;
 use crate::stats::Stats;
 use crate::structures::shared::own_box::{ChildBoxNode, Walk};
@@ -73,13 +74,6 @@ impl PairedBvh {
     }
 }
 
-impl LayoutBytes for PairedBvh {
-    /// 64 bytes per node.
-    fn node_bytes(&self) -> usize {
-        std::mem::size_of_val(&self.nodes[..])
-    }
-}
-
 impl SparseLayout for PairedBvh {
     type Node = ChildBoxNode;
     #[inline(always)]
@@ -104,6 +98,10 @@ impl SparseLayout for PairedBvh {
     #[inline(always)]
     fn parent(&self, n: u32) -> u32 {
         self.nodes[n as usize].extra & PARENT_MASK
+    }
+    /// 64 bytes per node.
+    fn node_bytes(&self) -> usize {
+        std::mem::size_of_val(&self.nodes[..])
     }
 }
 
