@@ -38,9 +38,9 @@ pub enum Preset {
     /// The paper's (Section 4): 800×300 (chess) or 512×512, 16 eye rays per
     /// pixel and 16 AO rays per hit (256 per pixel), in its tracer's form:
     /// closest-hit AO rays from the hit point, 4×4 stratified eye jitter and
-    /// AO directions ([`AoSettings::paper`]); the CHESS scenes (built-in
-    /// `chess`, `battlefield.obj`) seen through the paper's camera
-    /// ([`Camera::stackless_chess`]) with an AO radius of 32.
+    /// AO directions; the CHESS scenes (built-in `chess`,
+    /// `battlefield.obj`) seen through the paper's camera (50° horizontal,
+    /// non-square pixels) with an AO radius of 32.
     Paper,
 }
 

@@ -16,7 +16,9 @@ use std::path::PathBuf;
 #[derive(Subcommand, Debug)]
 pub enum BenchCommand {
     /// The stackless paper's Table 1 and Figure 5: AO render time of every
-    /// traversal (eye and AO phases), ratios to STACK, per-ray work, state sizes.
+    /// traversal (eye and AO phases), ratios to STACK on the same nodes,
+    /// per-ray work, state sizes; STACK, SPARSE and LAINE-k also on the
+    /// paper tracer's own 64-byte nodes (the `*-paired` rows).
     Stackless(StacklessArgs),
     /// The dual-split paper's Tables 1 to 3: storage, path-tracing frame
     /// time and per-ray nodes, plane tests and triangle tests of every
