@@ -39,6 +39,7 @@ pub mod fuzzing;
 pub mod geometry;
 pub mod meter;
 pub mod names;
+pub mod pages;
 pub mod par;
 pub mod rayfile;
 pub mod render;

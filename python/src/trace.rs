@@ -248,37 +248,16 @@ impl Geometries {
 /// The unit normal of every triangle ([`unit_normal`]; zeros for a
 /// degenerate one), made once per structure: a query reads 12 bytes per hit
 /// from here instead of the 36-byte triangle, which structures whose leaves
-/// keep their own copies of the triangles (bvh4, bvh8) never touch. On
-/// Linux the array asks for huge pages, so that a hit's normal costs no
-/// page walk.
+/// keep their own copies of the triangles (bvh4, bvh8) never touch. The
+/// array asks for huge pages ([`raytree::pages`]), so that a hit's normal
+/// costs no page walk.
 pub fn unit_normals(triangles: &[Triangle]) -> Vec<[f32; 3]> {
-    let mut normals: Vec<[f32; 3]> = Vec::with_capacity(triangles.len());
-    huge_pages(normals.as_mut_ptr() as *mut u8, triangles.len() * 12);
+    let mut normals: Vec<[f32; 3]> = raytree::pages::vec_with_capacity(triangles.len());
     triangles
         .par_iter()
         .map(|t| unit_normal(t).to_array())
         .collect_into_vec(&mut normals);
     normals
-}
-
-/// Advises the kernel to back `[ptr, ptr + len)` with huge pages (Linux;
-/// elsewhere, or when refused, nothing happens).
-fn huge_pages(ptr: *mut u8, len: usize) {
-    #[cfg(target_os = "linux")]
-    {
-        const HUGE: usize = 2 << 20;
-        let start = (ptr as usize).next_multiple_of(HUGE);
-        let end = (ptr as usize + len) / HUGE * HUGE;
-        if end > start {
-            // SAFETY: the range lies inside an allocation this process owns;
-            // MADV_HUGEPAGE changes how it is backed, not its contents.
-            unsafe {
-                libc::madvise(start as *mut libc::c_void, end - start, libc::MADV_HUGEPAGE);
-            }
-        }
-    }
-    #[cfg(not(target_os = "linux"))]
-    let _ = (ptr, len);
 }
 
 /// Where a closest-hit query answers: one slot per ray.

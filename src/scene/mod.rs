@@ -48,7 +48,7 @@ impl Scene {
                 triangle_count: mesh.indices.len().try_into().unwrap_or(u32::MAX),
             });
         }
-        let triangles = mesh.triangles().into();
+        let triangles = crate::pages::arc_from_fn(mesh.indices.len(), |i| mesh.triangle(i));
         Scene {
             name,
             mesh,

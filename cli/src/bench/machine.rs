@@ -24,6 +24,9 @@ pub struct Machine {
     pub simd_path: &'static str,
     /// Whether that path was chosen at run time or forced.
     pub simd_chosen: &'static str,
+    /// Whether the structures' arrays asked for huge pages
+    /// ([`raytree::pages::describe`]).
+    pub pages: String,
 }
 
 /// x86-64 extensions past its SSE2 baseline that change the code the
@@ -52,6 +55,7 @@ impl Machine {
             simd: EXTENSIONS.iter().filter(|e| e.1).map(|e| e.0).collect(),
             simd_path: raytree::structures::simd::active().describe(),
             simd_chosen: raytree::structures::simd::how_chosen(),
+            pages: raytree::pages::describe(),
         }
     }
 
@@ -69,12 +73,13 @@ impl Machine {
         };
         let threads: Vec<String> = self.threads.iter().map(|t| t.to_string()).collect();
         format!(
-            "machine: {}, {} logical cores; {} threads; {build}; {simd}; wide kernels on the {} SIMD path ({})",
+            "machine: {}, {} logical cores; {} threads; {build}; {simd}; wide kernels on the {} SIMD path ({}); {}",
             self.cpu,
             self.logical_cores,
             threads.join(" and "),
             self.simd_path,
-            self.simd_chosen
+            self.simd_chosen,
+            self.pages
         )
     }
 }
@@ -131,6 +136,7 @@ mod tests {
             )),
             "{line}"
         );
+        assert!(line.ends_with(&raytree::pages::describe()), "{line}");
         assert!(line.contains(if m.release {
             "release build"
         } else {

@@ -88,7 +88,7 @@ impl BinaryBvh {
             )));
         }
         let mut b = BinaryBvh {
-            words: Vec::with_capacity(words_needed),
+            words: crate::pages::vec_with_capacity(words_needed),
             index: Vec::with_capacity(bvh.prims.len()),
             blocks: LeafBlocks::default(),
             root: 0,
@@ -104,6 +104,7 @@ impl BinaryBvh {
         b.fill(bvh, ROOT, b.root);
         debug_assert_eq!(b.words.len(), words_needed);
         b.blocks = LeafBlocks::new(&b.index, &b.triangles);
+        crate::pages::advise(&b.words);
         Ok(b)
     }
 

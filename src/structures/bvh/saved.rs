@@ -107,6 +107,7 @@ impl BinaryBvh {
         }
         let offsets = starts.iter().map(|i| i as u32).collect();
         let blocks = LeafBlocks::new(&index, &triangles);
+        crate::pages::advise(&words);
         Ok(BinaryBvh {
             words,
             index,

@@ -170,7 +170,7 @@ impl CompactBvh {
             }
         }
         let mut c = CompactBvh {
-            nodes: Vec::with_capacity(bvh.stats.inner_nodes),
+            nodes: crate::pages::vec_with_capacity(bvh.stats.inner_nodes),
             index: Vec::with_capacity(bvh.prims.len()),
             blocks: LeafBlocks::default(),
             root: 0,
@@ -184,6 +184,7 @@ impl CompactBvh {
             c.root = c.place(bvh, ROOT);
         }
         c.blocks = LeafBlocks::new(&c.index, &c.triangles);
+        crate::pages::advise(&c.nodes);
         Ok(c)
     }
 

@@ -105,6 +105,7 @@ impl CompactBvh {
         }
         leaf_ids_match(&leaf_ids, &starts, leaves, "cbvh.leaf-ids")?;
         let blocks = LeafBlocks::new(&index, &triangles);
+        crate::pages::advise(&nodes);
         Ok(CompactBvh {
             nodes,
             index,

@@ -227,7 +227,7 @@ impl CwBvh {
         let plan = collapse::plan::<WIDTH>(bvh);
         let mut w = CwBvh {
             nodes: Vec::new(),
-            blocks: Vec::with_capacity(bvh.prims.len() / 2),
+            blocks: crate::pages::vec_with_capacity(bvh.prims.len() / 2),
             triangles,
             root_bounds: bvh.bounds(),
             root: 0,
@@ -246,6 +246,8 @@ impl CwBvh {
         w.nodes.push(CwNode::zeroed());
         w.node_ids.push(crate::bvh::ROOT);
         w.fill(bvh, &plan, 0, crate::bvh::ROOT, 0)?;
+        crate::pages::advise(&w.nodes);
+        crate::pages::advise(&w.blocks);
         Ok(w)
     }
 

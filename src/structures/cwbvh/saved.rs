@@ -107,6 +107,8 @@ impl CwBvh {
         }
         let starts = walk.starts;
         leaf_ids_match(&leaf_ids, &starts, leaves, "cwbvh.leaf-ids")?;
+        crate::pages::advise(&nodes);
+        crate::pages::advise(&blocks);
         Ok(CwBvh {
             nodes,
             blocks,

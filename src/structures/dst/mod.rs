@@ -136,6 +136,7 @@ impl DualSplitTree {
         t.stats.index_bytes = t.index.len() * 4;
         t.stats.least_identical_bytes = bound::least_identical_bytes(bvh);
         t.stats.conversion_seconds = start.elapsed().as_secs_f64();
+        crate::pages::advise(&t.words);
         Ok(t)
     }
 

@@ -140,6 +140,7 @@ impl DualSplitTree {
         stats.least_identical_bytes = least_identical_bytes;
         stats.conversion_seconds = conversion_seconds;
         let blocks = LeafBlocks::new(&index, &triangles);
+        crate::pages::advise(&words);
         Ok(DualSplitTree {
             words,
             index,

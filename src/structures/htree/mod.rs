@@ -105,6 +105,7 @@ impl HTree {
         h.stats.node_bytes = h.words.len() * 4;
         h.stats.index_bytes = h.index.len() * 4;
         h.stats.conversion_seconds = start.elapsed().as_secs_f64();
+        crate::pages::advise(&h.words);
         Ok(h)
     }
 

@@ -99,6 +99,7 @@ impl HTree {
         stats.index_bytes = index.len() * 4;
         stats.conversion_seconds = conversion_seconds;
         let blocks = LeafBlocks::new(&index, &triangles);
+        crate::pages::advise(&words);
         Ok(HTree {
             words,
             index,

@@ -88,7 +88,10 @@ impl LeafBlocks {
     /// The blocks of every leaf of `index` (a sign-terminated list of
     /// indices into `triangles`).
     pub fn new(index: &[u32], triangles: &[Triangle]) -> Self {
-        let mut blocks = Vec::with_capacity(index.len() / 2);
+        // A leaf of n triangles takes ceil(n / LANES) blocks: the whole list
+        // is reserved at once (on huge pages) and never moved.
+        let leaves = index.iter().filter(|&&e| e & LAST != 0).count();
+        let mut blocks = crate::pages::vec_with_capacity(index.len() / LANES + leaves);
         let mut start = vec![EMPTY; index.len()];
         let mut prims = Vec::new();
         let mut first = 0;
@@ -100,6 +103,7 @@ impl LeafBlocks {
                 first = p + 1;
             }
         }
+        crate::pages::advise(&blocks);
         LeafBlocks { blocks, start }
     }
 

@@ -58,7 +58,7 @@ impl SparseBvh {
             )));
         }
         let mut s = SparseBvh {
-            nodes: Vec::with_capacity(bvh.nodes.len()),
+            nodes: crate::pages::vec_with_capacity(bvh.nodes.len()),
             index: Vec::with_capacity(bvh.prims.len()),
             blocks: LeafBlocks::default(),
             triangles,
@@ -69,6 +69,7 @@ impl SparseBvh {
         s.push(bvh, ROOT, NO_PARENT);
         s.fill(bvh, 0);
         s.blocks = LeafBlocks::new(&s.index, &s.triangles);
+        crate::pages::advise(&s.nodes);
         Ok(s)
     }
 

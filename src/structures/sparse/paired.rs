@@ -33,7 +33,7 @@ impl PairedBvh {
     /// hi_right]`; links and parent words are `sparse`'s.
     pub fn from_sparse(sparse: Arc<SparseBvh>) -> Self {
         let own = &sparse.nodes;
-        let nodes = own
+        let nodes: Vec<ChildBoxNode> = own
             .iter()
             .map(|n| {
                 let mut planes = [0.0; 12];
@@ -56,6 +56,7 @@ impl PairedBvh {
                 }
             })
             .collect();
+        crate::pages::advise(&nodes);
         PairedBvh {
             nodes,
             root: own[0].bounds,

@@ -75,6 +75,7 @@ impl SparseBvh {
             ));
         }
         let blocks = LeafBlocks::new(&index, &triangles);
+        crate::pages::advise(&nodes);
         Ok(SparseBvh {
             nodes,
             index,

@@ -105,6 +105,12 @@ pub type Bvh4 = WideBvh<4>;
 pub type Bvh8 = WideBvh<8>;
 
 impl<const W: usize> WideBvh<W> {
+    /// Puts the nodes and leaf blocks on huge pages ([`crate::pages`]).
+    pub(crate) fn advise_pages(&self) {
+        crate::pages::advise(&self.nodes);
+        crate::pages::advise(&self.blocks);
+    }
+
     /// Collapses `bvh` (built over `triangles`) into a `W`-wide tree by SAH.
     ///
     /// # Errors
@@ -128,7 +134,7 @@ impl<const W: usize> WideBvh<W> {
         let plan = collapse::plan::<W>(bvh);
         let mut w = WideBvh {
             nodes: Vec::new(),
-            blocks: Vec::with_capacity(bvh.prims.len() / 2),
+            blocks: crate::pages::vec_with_capacity(bvh.prims.len() / 2),
             triangles,
             root_bounds: bvh.bounds(),
             root: 0,
@@ -139,6 +145,7 @@ impl<const W: usize> WideBvh<W> {
             sah_cost: plan.cost,
         };
         w.root = w.place(bvh, &plan, crate::bvh::ROOT, 0);
+        w.advise_pages();
         Ok(w)
     }
 

@@ -151,7 +151,7 @@ impl<const W: usize> WideBvh<W> {
             ));
         }
         leaf_ids_match(&leaf_ids, &starts, leaves, "wide.leaf-ids")?;
-        Ok(WideBvh {
+        let w = WideBvh {
             nodes,
             blocks,
             triangles,
@@ -162,7 +162,9 @@ impl<const W: usize> WideBvh<W> {
             depth,
             leaves,
             sah_cost,
-        })
+        };
+        w.advise_pages();
+        Ok(w)
     }
 }
 
