@@ -306,7 +306,7 @@ impl Split for ClosestOut<'_> {
 }
 
 impl ClosestOut<'_> {
-    /// Ray `j`'s answer, but for its normal (see [`Self::set_normals`]).
+    /// Ray `j`'s answer, but for its normal (gathered after the chunk).
     #[inline(always)]
     fn set(&mut self, j: usize, hit: Option<Hit>, geometries: &Geometries) {
         match hit {
@@ -325,31 +325,6 @@ impl ClosestOut<'_> {
             }
         }
     }
-
-    /// Ray `j`'s normal, or zeros for a miss.
-    #[inline(always)]
-    fn set_normal(&mut self, j: usize, normal: Option<&[f32; 3]>) {
-        self.normal[3 * j..3 * j + 3].copy_from_slice(normal.unwrap_or(&[0.0; 3]));
-    }
-}
-
-/// Asks the processor to fetch `t` into the cache, without waiting for it.
-#[inline(always)]
-fn prefetch<T>(t: &T) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-        let p = t as *const T as *const i8;
-        // A prefetch is a hint: it reads nothing into the program and cannot
-        // fault. A triangle (36 bytes) may straddle two cache lines.
-        #[allow(unused_unsafe)]
-        unsafe {
-            _mm_prefetch::<_MM_HINT_T0>(p);
-            _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(std::mem::size_of::<T>() - 1));
-        }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = t;
 }
 
 /// The closest hit of every ray ([`Accel::closest_hit`]).
@@ -381,12 +356,11 @@ impl WithAccel for Closest<'_> {
             .into_par_iter()
             .enumerate()
             .for_each(|(c, mut o)| {
-                // A hit's normal is written one ray later, its triangle
-                // prefetched meanwhile: structures whose leaves keep their
-                // own copies of the triangles (bvh4, bvh8) never touch the
-                // scene's triangle array, and reading it right away cost
-                // bvh8 about 20% on dragon.obj (a cache and TLB miss per hit).
-                let mut pending: Option<(usize, u32)> = None;
+                // Normals are gathered after the chunk is traced, in a loop
+                // of independent loads that the processor overlaps: a
+                // structure whose leaves keep their own copies of the
+                // triangles (bvh4, bvh8) never touches the scene's arrays,
+                // and each hit's normal is a cache miss.
                 for j in 0..o.t.len() {
                     let ray = rays.ray(c * CHUNK + j, invalid);
                     let hit = match o.work.as_mut() {
@@ -399,21 +373,9 @@ impl WithAccel for Closest<'_> {
                         }
                     };
                     o.set(j, hit, geometries);
-                    if let Some((k, prim)) = pending.take() {
-                        o.set_normal(k, normals.get(prim as usize));
-                    }
-                    match hit {
-                        Some(h) => {
-                            if let Some(n) = normals.get(h.prim as usize) {
-                                prefetch(n);
-                            }
-                            pending = Some((j, h.prim));
-                        }
-                        None => o.set_normal(j, None),
-                    }
                 }
-                if let Some((k, prim)) = pending {
-                    o.set_normal(k, normals.get(prim as usize));
+                for (prim, normal) in o.prim.iter().zip(o.normal.chunks_exact_mut(3)) {
+                    normal.copy_from_slice(normals.get(*prim as usize).unwrap_or(&[0.0; 3]));
                 }
             });
     }
