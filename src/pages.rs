@@ -8,14 +8,18 @@
 //! `MADV_COLLAPSE` (Linux 6.1 and later) moves memory already written onto
 //! such pages at once. Embree asks for huge pages for the same reason.
 //!
-//! [`advise`] does both for the 2 MiB-aligned part of an array once it is
-//! built; the contents stay as they are. Where the kernel refuses (an older
-//! kernel, THP `never`, no free huge pages) the array stays on small pages:
-//! nothing but speed depends on it. `RAYTREE_HUGE_PAGES=0` turns it off (to
-//! measure what it pays: `raytree bench peers`, `examples/huge_pages.rs`).
+//! [`vec_with_capacity`] and [`arc_from_fn`] ask before an array's first
+//! write, so that its pages fault in 2 MiB at a time and nothing is copied:
+//! for arrays whose size is known in advance. [`advise`] asks for an array
+//! already built (both advices, on its 2 MiB-aligned part); the kernel then
+//! copies what sits on small pages. Contents never change. Where the kernel
+//! refuses (an older kernel, THP `never`, no free huge pages) an array stays
+//! on small pages: nothing but speed depends on it. `RAYTREE_HUGE_PAGES=0`
+//! turns it all off (to measure what it pays: `raytree bench peers`,
+//! `examples/huge_pages.rs`).
 //!
-//! Measured (bvh8 on dragon.obj, 871k triangles, one thread, 512×512 rays,
-//! THP `madvise`): see `ARCHITECTURE.md`, "Huge pages".
+//! Measured (dragon.obj, 871k triangles, one thread, THP `madvise`):
+//! `ARCHITECTURE.md`, "Huge pages".
 
 use std::mem::MaybeUninit;
 use std::sync::atomic::{AtomicU8, Ordering};
