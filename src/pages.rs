@@ -118,7 +118,10 @@ fn prepare<T>(uninit: &[MaybeUninit<T>]) {
 
 /// An empty vector with room for `n` elements whose memory is asked onto
 /// huge pages before anything is written to it: for a structure's arrays
-/// whose size is known (or bounded) before they are filled.
+/// whose size is known (or bounded) before they are filled. Where the
+/// allocator may hand back memory already written on small pages (a reused
+/// heap block), or the vector may outgrow `n`, the caller also [`advise`]s
+/// the finished array: quick when this advice took.
 pub fn vec_with_capacity<T>(n: usize) -> Vec<T> {
     let mut v = Vec::with_capacity(n);
     prepare(v.spare_capacity_mut());

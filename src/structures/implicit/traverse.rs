@@ -9,6 +9,25 @@ use crate::geometry::{Hit, Ray};
 use crate::stats::Stats;
 use crate::structures::shared::own_box::{Children, Step, Walk};
 
+/// The walk over `im`'s slots from the root (heap position 0, slot 1);
+/// `None` when the ray misses the root's box.
+#[inline(always)]
+fn enter<'a, const ANY: bool, S: Stats>(
+    im: &'a ImplicitBvh,
+    ray: &'a Ray,
+    stats: &mut S,
+) -> Option<Walk<'a, ANY>> {
+    let slots = im.slots();
+    Walk::enter(
+        ray,
+        slots,
+        &slots[1].bounds,
+        &im.blocks,
+        &im.triangles,
+        stats,
+    )
+}
+
 /// Algorithm 2: `levelStart` (2^depth), `levelIndex` (the left-first index
 /// within the level) and `swapMask` (bit i set if level depth-i-1 took the
 /// right child first). The node is
@@ -23,14 +42,7 @@ pub fn implicit_a<S: Stats, const ANY: bool>(
         return None;
     }
     let slots = im.slots();
-    let mut w = Walk::<ANY>::enter(
-        ray,
-        slots,
-        &slots[1].bounds,
-        &im.blocks,
-        &im.triangles,
-        stats,
-    )?;
+    let mut w = enter::<ANY, S>(im, ray, stats)?;
     let (mut level_start, mut level_index, mut swap_mask) = (1u32, 0u32, 0u32);
     loop {
         let node = level_start
@@ -88,14 +100,7 @@ pub fn implicit_b<S: Stats, const ANY: bool>(
         return None;
     }
     let slots = im.slots();
-    let mut w = Walk::<ANY>::enter(
-        ray,
-        slots,
-        &slots[1].bounds,
-        &im.blocks,
-        &im.triangles,
-        stats,
-    )?;
+    let mut w = enter::<ANY, S>(im, ray, stats)?;
     let (mut index, mut level_index) = (1u32, 0u32);
     loop {
         // Node `index - 1` lives in slot `index`.

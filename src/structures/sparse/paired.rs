@@ -33,29 +33,28 @@ impl PairedBvh {
     /// hi_right]`; links and parent words are `sparse`'s.
     pub fn from_sparse(sparse: Arc<SparseBvh>) -> Self {
         let own = &sparse.nodes;
-        let nodes: Vec<ChildBoxNode> = own
-            .iter()
-            .map(|n| {
-                let mut planes = [0.0; 12];
-                if !n.is_leaf() {
-                    let (l, r) = (&own[n.target() as usize], &own[n.target() as usize + 1]);
-                    for a in 0..3 {
-                        planes[4 * a..4 * a + 4].copy_from_slice(&[
-                            l.bounds[a],
-                            r.bounds[a],
-                            l.bounds[a + 3],
-                            r.bounds[a + 3],
-                        ]);
-                    }
+        // One record per slot, asked onto huge pages before it is written.
+        let mut nodes: Vec<ChildBoxNode> = crate::pages::vec_with_capacity(own.len());
+        nodes.extend(own.iter().map(|n| {
+            let mut planes = [0.0; 12];
+            if !n.is_leaf() {
+                let (l, r) = (&own[n.target() as usize], &own[n.target() as usize + 1]);
+                for a in 0..3 {
+                    planes[4 * a..4 * a + 4].copy_from_slice(&[
+                        l.bounds[a],
+                        r.bounds[a],
+                        l.bounds[a + 3],
+                        r.bounds[a + 3],
+                    ]);
                 }
-                ChildBoxNode {
-                    planes,
-                    link: n.link,
-                    extra: n.extra,
-                    pad: [0; 2],
-                }
-            })
-            .collect();
+            }
+            ChildBoxNode {
+                planes,
+                link: n.link,
+                extra: n.extra,
+                pad: [0; 2],
+            }
+        }));
         crate::pages::advise(&nodes);
         PairedBvh {
             nodes,
