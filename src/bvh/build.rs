@@ -1,10 +1,10 @@
 //! Top-down builders: binned SAH, and the stackless paper's hybrid (SAH for
 //! the top levels, median splits below). Subtrees are built in parallel.
 
-use super::binning::{best_split, Split, MAX_BINS};
+use super::binning::{best_split, PrimRef, Split, MAX_BINS};
 use super::{BuildStats, Bvh, Node, NodeKind, NO_PARENT};
 use crate::geometry::{Aabb, Triangle};
-use glam::{Vec3, Vec3A};
+use glam::Vec3A;
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -113,9 +113,27 @@ impl BuildOptions {
 }
 
 struct Ctx<'a> {
-    bounds: &'a [Aabb],
-    centroids: &'a [Vec3],
     opts: &'a BuildOptions,
+    /// Subtrees are handed to other threads only above this depth (and
+    /// above [`PARALLEL_SUBTREE`] references): a right subtree built
+    /// apart is copied into its parent's node list, once per level of
+    /// such nesting, so the nesting is kept to a few levels more than the
+    /// threads need (none on one thread).
+    spawn_depth: u32,
+}
+
+impl Ctx<'_> {
+    /// Room for the nodes of a subtree of `n` references: at most `2n − 1`
+    /// whatever the tree, reserved at what the builder's leaves usually
+    /// hold (SAH trees average under two triangles a leaf) so that the
+    /// list rarely grows and the heap meter reports what is used.
+    fn node_capacity(&self, n: usize) -> usize {
+        let per_leaf = match self.opts.builder {
+            Builder::Hybrid => (self.opts.max_leaf_size / 2).max(1) as f64,
+            Builder::Sah | Builder::Sbvh => 1.6,
+        };
+        ((2.0 * n as f64 / per_leaf) as usize + 1).min(2 * n.max(1) - 1)
+    }
 }
 
 pub(super) fn build(triangles: &[Triangle], opts: &BuildOptions) -> Bvh {
@@ -136,23 +154,26 @@ pub(super) fn build(triangles: &[Triangle], opts: &BuildOptions) -> Bvh {
     let (nodes, prims) = if opts.builder == Builder::Sbvh {
         super::sbvh::build(triangles, &prims, opts)
     } else {
-        let bounds: Vec<Aabb> = triangles.par_iter().map(Triangle::bounds).collect();
-        let centroids: Vec<Vec3> = bounds.par_iter().map(Aabb::center).collect();
-        let ctx = Ctx {
-            bounds: &bounds,
-            centroids: &centroids,
-            opts,
+        let refs: Vec<PrimRef> = prims
+            .par_iter()
+            .map(|&i| PrimRef::new(&triangles[i as usize].bounds(), i))
+            .collect();
+        drop(prims);
+        let threads = rayon::current_num_threads();
+        let spawn_depth = if threads > 1 {
+            threads.next_power_of_two().trailing_zeros() + 8
+        } else {
+            0
         };
-        binned(&ctx, prims)
+        binned(&Ctx { opts, spawn_depth }, refs)
     };
     finish(nodes, prims, opts, degenerate, start)
 }
 
 /// The binned SAH and hybrid builds: nodes and triangle order.
-fn binned(ctx: &Ctx, mut prims: Vec<u32>) -> (Vec<Node>, Vec<u32>) {
-    let opts = ctx.opts;
-    let mut nodes = Vec::with_capacity(2 * prims.len() / opts.max_leaf_size.max(1) + 1);
-    if prims.is_empty() {
+fn binned(ctx: &Ctx, mut refs: Vec<PrimRef>) -> (Vec<Node>, Vec<u32>) {
+    let mut nodes = Vec::with_capacity(ctx.node_capacity(refs.len()));
+    if refs.is_empty() {
         nodes.push(Node {
             bounds: Aabb::EMPTY,
             parent: NO_PARENT,
@@ -160,9 +181,18 @@ fn binned(ctx: &Ctx, mut prims: Vec<u32>) -> (Vec<Node>, Vec<u32>) {
             kind: NodeKind::Leaf { first: 0, count: 0 },
         });
     } else {
-        let b = bounds_of(ctx, &prims);
-        subtree(ctx, &mut prims, 0, 0, b, NO_PARENT, &mut nodes);
+        let b = bounds_of(&refs);
+        // The stable partition of large nodes writes here; small nodes are
+        // partitioned in place.
+        let mut scratch = if refs.len() >= PARALLEL_PARTITION {
+            refs.clone()
+        } else {
+            Vec::new()
+        };
+        subtree(ctx, &mut refs, &mut scratch, 0, 0, b, NO_PARENT, &mut nodes);
     }
+    nodes.shrink_to_fit();
+    let prims = refs.par_iter().map(PrimRef::id).collect();
     (nodes, prims)
 }
 
@@ -196,25 +226,23 @@ fn finish(
     bvh
 }
 
-/// The box and the centroids' box of `ids`.
-fn bounds_of(ctx: &Ctx, ids: &[u32]) -> (Aabb, Aabb) {
-    let one = |&i: &u32| {
-        (
-            ctx.bounds[i as usize],
-            Aabb::EMPTY.grow(ctx.centroids[i as usize]),
-        )
+/// The box and the centroids' box of `refs`.
+fn bounds_of(refs: &[PrimRef]) -> (Aabb, Aabb) {
+    let one = |mut s: Sides, r: &PrimRef| {
+        s.add(r, true);
+        s
     };
-    let join = |a: (Aabb, Aabb), b: (Aabb, Aabb)| (a.0.union(b.0), a.1.union(b.1));
-    if ids.len() >= 1 << 15 {
-        ids.par_iter()
-            .map(one)
-            .reduce(|| (Aabb::EMPTY, Aabb::EMPTY), join)
+    let sides = if refs.len() >= 1 << 15 {
+        refs.par_chunks(PARTITION_CHUNK)
+            .map(|c| c.iter().fold(Sides::new(), one))
+            .reduce(Sides::new, Sides::join)
     } else {
-        ids.iter().map(one).fold((Aabb::EMPTY, Aabb::EMPTY), join)
-    }
+        refs.iter().fold(Sides::new(), one)
+    };
+    sides.boxes().0
 }
 
-/// Builds the subtree over `ids` (whose box and centroids' box are
+/// Builds the subtree over `refs` (whose box and centroids' box are
 /// `bounds`, from the parent's partition), appending its nodes to `nodes`
 /// in preorder, its root's parent being `parent` (an index in `nodes`).
 /// Serial subtrees append to the caller's vector; a parallel split builds
@@ -223,14 +251,15 @@ fn bounds_of(ctx: &Ctx, ids: &[u32]) -> (Aabb, Aabb) {
 #[allow(clippy::too_many_arguments)]
 fn subtree(
     ctx: &Ctx,
-    ids: &mut [u32],
+    refs: &mut [PrimRef],
+    scratch: &mut [PrimRef],
     first: usize,
     depth: u32,
     (bounds, cbounds): (Aabb, Aabb),
     parent: u32,
     nodes: &mut Vec<Node>,
 ) {
-    let n = ids.len();
+    let n = refs.len();
     let id = nodes.len() as u32;
     let leaf = |nodes: &mut Vec<Node>| {
         nodes.push(Node {
@@ -252,14 +281,7 @@ fn subtree(
         return leaf(nodes);
     }
     let split: Option<Split> = if use_sah {
-        best_split(
-            ids,
-            ctx.bounds,
-            ctx.centroids,
-            bounds.area(),
-            &cbounds,
-            ctx.opts.bins,
-        )
+        best_split(refs, bounds.area(), &cbounds, ctx.opts.bins)
     } else {
         None
     };
@@ -267,7 +289,7 @@ fn subtree(
         // SAH: a leaf when it is no dearer than the best split.
         Some(s) if n <= max_leaf && s.cost >= n as f32 => return leaf(nodes),
         Some(s) => {
-            let (mid, lb, rb) = partition(ctx, ids, |c| s.goes_left(c));
+            let (mid, lb, rb) = partition(refs, scratch, |c| s.goes_left(c));
             (mid, s.map.axis, lb, rb)
         }
         None if n <= max_leaf => return leaf(nodes),
@@ -276,9 +298,9 @@ fn subtree(
             // that the result does not depend on the input order.
             let axis = cbounds.largest_axis();
             let mid = n / 2;
-            let key = |&i: &u32| (ctx.centroids[i as usize][axis], i);
-            ids.select_nth_unstable_by(mid, |a, b| key(a).partial_cmp(&key(b)).unwrap());
-            let (lb, rb) = (bounds_of(ctx, &ids[..mid]), bounds_of(ctx, &ids[mid..]));
+            let key = |r: &PrimRef| (r.centroid()[axis], r.id());
+            refs.select_nth_unstable_by(mid, |a, b| key(a).partial_cmp(&key(b)).unwrap());
+            let (lb, rb) = (bounds_of(&refs[..mid]), bounds_of(&refs[mid..]));
             (mid, axis, lb, rb)
         }
     };
@@ -292,12 +314,29 @@ fn subtree(
             axis: axis as u8,
         },
     });
-    let (l, r) = ids.split_at_mut(mid);
-    let right = if n > PARALLEL_SUBTREE {
-        let mut theirs = Vec::with_capacity(2 * r.len() / max_leaf.max(1) + 1);
+    let (l, r) = refs.split_at_mut(mid);
+    // The scratch list goes with the references that still need it.
+    let (sl, sr): (&mut [PrimRef], &mut [PrimRef]) = if scratch.len() == n {
+        scratch.split_at_mut(mid)
+    } else {
+        (&mut [], &mut [])
+    };
+    let right = if n > PARALLEL_SUBTREE && depth < ctx.spawn_depth {
+        let mut theirs = Vec::with_capacity(ctx.node_capacity(r.len()));
         rayon::join(
-            || subtree(ctx, l, first, depth + 1, lb, id, nodes),
-            || subtree(ctx, r, first + mid, depth + 1, rb, NO_PARENT, &mut theirs),
+            || subtree(ctx, l, sl, first, depth + 1, lb, id, nodes),
+            || {
+                subtree(
+                    ctx,
+                    r,
+                    sr,
+                    first + mid,
+                    depth + 1,
+                    rb,
+                    NO_PARENT,
+                    &mut theirs,
+                )
+            },
         );
         let offset = nodes.len() as u32;
         nodes.extend(theirs.into_iter().map(|mut node| {
@@ -317,9 +356,9 @@ fn subtree(
         }));
         offset
     } else {
-        subtree(ctx, l, first, depth + 1, lb, id, nodes);
+        subtree(ctx, l, sl, first, depth + 1, lb, id, nodes);
         let right = nodes.len() as u32;
-        subtree(ctx, r, first + mid, depth + 1, rb, id, nodes);
+        subtree(ctx, r, sr, first + mid, depth + 1, rb, id, nodes);
         right
     };
     if let NodeKind::Inner {
@@ -333,7 +372,7 @@ fn subtree(
 /// Nodes of at least this many triangles are partitioned in parallel.
 const PARALLEL_PARTITION: usize = 1 << 16;
 /// The chunks of a parallel partition. Fixed, so that the order of the
-/// partitioned ids, and so the tree, does not depend on the thread count.
+/// partitioned refs, and so the tree, does not depend on the thread count.
 const PARTITION_CHUNK: usize = 1 << 14;
 
 /// The two sides' boxes and centroid boxes while partitioning, corners in
@@ -359,9 +398,8 @@ impl Sides {
     }
 
     #[inline(always)]
-    fn add(&mut self, ctx: &Ctx, i: usize, left: bool) {
-        let (b, c) = (&ctx.bounds[i], Vec3A::from(ctx.centroids[i]));
-        let (min, max) = (Vec3A::from(b.min), Vec3A::from(b.max));
+    fn add(&mut self, r: &PrimRef, left: bool) {
+        let (c, min, max) = (r.centroid(), r.min(), r.max());
         let (bb, cb) = if left {
             (&mut self.lb, &mut self.lc)
         } else {
@@ -392,26 +430,34 @@ impl Sides {
     }
 }
 
-/// Moves the ids whose centroid `left` accepts to the front; returns how
+/// Moves the refs whose centroid `left` accepts to the front; returns how
 /// many, and the boxes and centroid boxes of the two sides. Large nodes
 /// are partitioned in parallel and stably ([`partition_parallel`]), small
 /// ones in place.
 fn partition(
-    ctx: &Ctx,
-    ids: &mut [u32],
-    left: impl Fn(Vec3) -> bool + Sync,
+    refs: &mut [PrimRef],
+    scratch: &mut [PrimRef],
+    left: impl Fn(Vec3A) -> bool + Sync,
 ) -> (usize, (Aabb, Aabb), (Aabb, Aabb)) {
-    if ids.len() >= PARALLEL_PARTITION {
-        return partition_parallel(ctx, ids, left);
+    if refs.len() >= PARALLEL_PARTITION {
+        return partition_parallel(refs, scratch, left);
     }
+    partition_serial(refs, left)
+}
+
+/// [`partition`] on this thread, in place (not stable).
+fn partition_serial(
+    refs: &mut [PrimRef],
+    left: impl Fn(Vec3A) -> bool,
+) -> (usize, (Aabb, Aabb), (Aabb, Aabb)) {
     let mut sides = Sides::new();
     let mut mid = 0;
-    for k in 0..ids.len() {
-        let i = ids[k] as usize;
-        let goes_left = left(ctx.centroids[i]);
-        sides.add(ctx, i, goes_left);
+    for k in 0..refs.len() {
+        let r = refs[k];
+        let goes_left = left(r.centroid());
+        sides.add(&r, goes_left);
         if goes_left {
-            ids.swap(mid, k);
+            refs.swap(mid, k);
             mid += 1;
         }
     }
@@ -419,55 +465,55 @@ fn partition(
     (mid, l, r)
 }
 
-/// [`partition`] over chunks of [`PARTITION_CHUNK`] ids on rayon's
-/// threads: each chunk's left count, then each chunk writes its ids to its
-/// own places on both sides of a scratch list (lefts, then rights, in
-/// their order), which is copied back. One allocation per call.
+/// [`partition`] over chunks of [`PARTITION_CHUNK`] refs on rayon's
+/// threads: each chunk's left count, then each chunk writes its refs to its
+/// own places on both sides of `scratch` (as long as `refs`: lefts, then
+/// rights, in their order), which is copied back.
 fn partition_parallel(
-    ctx: &Ctx,
-    ids: &mut [u32],
-    left: impl Fn(Vec3) -> bool + Sync,
+    refs: &mut [PrimRef],
+    out: &mut [PrimRef],
+    left: impl Fn(Vec3A) -> bool + Sync,
 ) -> (usize, (Aabb, Aabb), (Aabb, Aabb)) {
-    let counts: Vec<usize> = ids
+    assert_eq!(
+        out.len(),
+        refs.len(),
+        "a scratch list as long as the references"
+    );
+    let counts: Vec<usize> = refs
         .par_chunks(PARTITION_CHUNK)
-        .map(|c| {
-            c.iter()
-                .filter(|&&i| left(ctx.centroids[i as usize]))
-                .count()
-        })
+        .map(|c| c.iter().filter(|r| left(r.centroid())).count())
         .collect();
     let mid: usize = counts.iter().sum();
-    let mut out = vec![0u32; ids.len()];
     let (mut lefts, mut rights) = out.split_at_mut(mid);
     let mut places = Vec::with_capacity(counts.len());
-    for (chunk, &nl) in ids.chunks(PARTITION_CHUNK).zip(&counts) {
+    for (chunk, &nl) in refs.chunks(PARTITION_CHUNK).zip(&counts) {
         let (l, rest) = std::mem::take(&mut lefts).split_at_mut(nl);
         lefts = rest;
         let (r, rest) = std::mem::take(&mut rights).split_at_mut(chunk.len() - nl);
         rights = rest;
         places.push((l, r));
     }
-    let sides = ids
+    let sides = refs
         .par_chunks(PARTITION_CHUNK)
         .zip(places)
         .map(|(chunk, (l, r))| {
             let mut sides = Sides::new();
             let (mut nl, mut nr) = (0, 0);
-            for &id in chunk {
-                let goes_left = left(ctx.centroids[id as usize]);
-                sides.add(ctx, id as usize, goes_left);
+            for id in chunk {
+                let goes_left = left(id.centroid());
+                sides.add(id, goes_left);
                 if goes_left {
-                    l[nl] = id;
+                    l[nl] = *id;
                     nl += 1;
                 } else {
-                    r[nr] = id;
+                    r[nr] = *id;
                     nr += 1;
                 }
             }
             sides
         })
         .reduce(Sides::new, Sides::join);
-    ids.copy_from_slice(&out);
+    refs.copy_from_slice(out);
     let (l, r) = sides.boxes();
     (mid, l, r)
 }
@@ -476,6 +522,7 @@ fn partition_parallel(
 mod tests {
     use super::*;
     use crate::scene::Scene;
+    use glam::Vec3;
 
     #[test]
     fn both_builders_make_valid_trees_for_every_leaf_size() {
@@ -512,31 +559,32 @@ mod tests {
         let scene = Scene::builtin("hairball:3000").unwrap();
         let bounds: Vec<Aabb> = scene.triangles.iter().map(Triangle::bounds).collect();
         let centroids: Vec<Vec3> = bounds.iter().map(Aabb::center).collect();
-        let opts = BuildOptions::sah();
-        let ctx = Ctx {
-            bounds: &bounds,
-            centroids: &centroids,
-            opts: &opts,
-        };
         let n = centroids.len() as u32;
-        // Every triangle many times over: more ids than PARALLEL_PARTITION.
+        // Every triangle many times over: more references than
+        // PARALLEL_PARTITION.
         let ids: Vec<u32> = (0..3 * PARALLEL_PARTITION as u32)
             .map(|k| (k * 7919) % n)
             .collect();
-        let left = |c: Vec3| c.x + 0.3 * c.y < 0.1;
-        let mut par = ids.clone();
-        let (mid, lp, rp) = partition_parallel(&ctx, &mut par, left);
+        let refs: Vec<PrimRef> = ids
+            .iter()
+            .map(|&i| PrimRef::new(&bounds[i as usize], i))
+            .collect();
+        let left = |c: Vec3A| c.x + 0.3 * c.y < 0.1;
+        let left3 = |c: Vec3| left(c.into());
+        let mut par = refs.clone();
+        let (mid, lp, rp) = partition_parallel(&mut par, &mut refs.clone(), left);
         let want: Vec<u32> = ids
             .iter()
             .copied()
-            .filter(|&i| left(centroids[i as usize]))
+            .filter(|&i| left3(centroids[i as usize]))
             .chain(
                 ids.iter()
                     .copied()
-                    .filter(|&i| !left(centroids[i as usize])),
+                    .filter(|&i| !left3(centroids[i as usize])),
             )
             .collect();
-        assert_eq!(par, want);
+        let got: Vec<u32> = par.iter().map(PrimRef::id).collect();
+        assert_eq!(got, want);
         assert!(mid > 0 && mid < ids.len());
         // The boxes of each side, from `Aabb`s over the expected order.
         let sides = |ids: &[u32]| {
@@ -545,13 +593,23 @@ mod tests {
             })
         };
         assert_eq!((lp, rp), (sides(&want[..mid]), sides(&want[mid..])));
+        // The serial partition moves the same references to each side.
+        let mut serial = refs.clone();
+        let (smid, ls, rs) = partition_serial(&mut serial, left);
+        assert_eq!((smid, ls, rs), (mid, lp, rp));
+        let mut sl: Vec<u32> = serial[..mid].iter().map(PrimRef::id).collect();
+        sl.sort_unstable();
+        let mut wl = want[..mid].to_vec();
+        wl.sort_unstable();
+        assert_eq!(sl, wl);
         let one = rayon::ThreadPoolBuilder::new()
             .num_threads(1)
             .build()
             .unwrap();
-        let mut single = ids.clone();
-        one.install(|| partition_parallel(&ctx, &mut single, left));
-        assert_eq!(single, par);
+        let mut single = refs.clone();
+        one.install(|| partition_parallel(&mut single, &mut refs.clone(), left));
+        let single: Vec<u32> = single.iter().map(PrimRef::id).collect();
+        assert_eq!(single, got);
     }
 
     #[test]
