@@ -34,9 +34,18 @@ fn every_contender_answers_as_raytree_does() {
         width: 64,
         height: 48,
         repeats: 1,
+        build_repeats: 2,
         ..Options::quick()
     };
     let r = peers::run_scene(&scene, &opts, &|| {}).unwrap();
+    for row in r.rows.iter().filter(|r| r.contender != peers::FASTEST) {
+        assert!(
+            row.build_s.is_finite() && row.build_s > 0.0,
+            "{}: build {} s",
+            row.contender,
+            row.build_s
+        );
+    }
     let names: Vec<&str> = r
         .rows
         .iter()

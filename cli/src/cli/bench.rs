@@ -57,6 +57,9 @@ pub struct PeersArgs {
     /// Timed runs of each ray set by each contender (the median counts).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=100))]
     repeats: Option<u32>,
+    /// Builds of each contender, taking turns (the fastest counts).
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=100))]
+    build_repeats: u32,
     /// Worker threads [default: all cores].
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
     threads: Option<u32>,
@@ -202,6 +205,7 @@ fn run_peers(a: PeersArgs) -> Result<()> {
     opts.width = a.width.map_or(opts.width, |v| v as usize);
     opts.height = a.height.map_or(opts.height, |v| v as usize);
     opts.repeats = a.repeats.map_or(opts.repeats, |v| v as usize);
+    opts.build_repeats = a.build_repeats as usize;
     let pool = thread_pool(a.threads)?;
     let machine = Machine::detect(&[pool.current_num_threads()]);
     say!("{}", machine.describe());
@@ -222,7 +226,7 @@ fn run_peers(a: PeersArgs) -> Result<()> {
         results.push(r);
     }
     bar.finish_and_clear();
-    say!("Mrays/s from the median of {} runs on {} threads; (×) is the speed over raytree's BVH with STACK, same run. primary and path: closest hit; ao: any hit.", opts.repeats, pool.current_num_threads());
+    say!("Mrays/s from the median of {} runs on {} threads; (×) is the speed over raytree's BVH with STACK, same run. primary and path: closest hit; ao: any hit. Build times: the fastest of {} builds, the contenders taking turns.", opts.repeats, pool.current_num_threads(), opts.build_repeats);
     for peer in ["embree high", "embree medium", "obvhs cwbvh"] {
         if let Some(g) = peers::geomean_ratios(&results, peers::FASTEST, peer) {
             let cells: Vec<String> = g.iter().map(|(w, r)| format!("{w} {r:.2}×")).collect();
@@ -230,6 +234,18 @@ fn run_peers(a: PeersArgs) -> Result<()> {
                 "geometric mean over {} scenes, raytree fastest vs {peer} (above 1: raytree faster): {}",
                 results.len(),
                 cells.join(", ")
+            );
+        }
+    }
+    for (of, to) in [
+        (peers::RAYTREE[0], "embree medium"),
+        (peers::RAYTREE[2], "embree medium"),
+        (peers::RAYTREE[4], "embree high"),
+    ] {
+        if let Some(g) = peers::geomean_build_ratio(&results, of, to) {
+            say!(
+                "geometric mean over {} scenes, build time of {of} over {to}'s (below 1: raytree builds faster): {g:.2}×",
+                results.len()
             );
         }
     }

@@ -117,6 +117,8 @@ pub struct Options {
     pub bounces: u32,
     /// Timed runs of each set by each contender; the median is reported.
     pub repeats: usize,
+    /// Builds of each contender, taking turns; the fastest is reported.
+    pub build_repeats: usize,
 }
 
 impl Options {
@@ -129,6 +131,7 @@ impl Options {
             ao_radius_fraction: 0.045,
             bounces: 5,
             repeats: 3,
+            build_repeats: 3,
         }
     }
 
@@ -234,77 +237,150 @@ fn agree(a: f32, b: f32) -> bool {
     a == b || (a - b).abs() <= 1e-4 * a.abs().max(b.abs())
 }
 
+/// One round of builds: every available contender built over `scene`
+/// but raytree's binary BVH (built by [`Sah::build`]), raytree's wide rows
+/// from the SAH tree, each with its build time.
+struct Round<'b> {
+    contenders: Vec<Entry<'b>>,
+    configs: Vec<String>,
+    /// The most heap the SBVH build and its collapse held.
+    sbvh_peak: Option<u64>,
+}
+
+impl<'b> Round<'b> {
+    fn build(scene: &Scene, o: &Options, sah: &'b Sah) -> Result<Self> {
+        let (bvh, bvh_s) = (&sah.bvh, sah.bvh_s);
+        let timed =
+            |f: &dyn Fn() -> Result<Box<dyn Contender>>| -> Result<(f64, Box<dyn Contender>)> {
+                let t = Instant::now();
+                let c = f()?;
+                Ok((bvh_s + t.elapsed().as_secs_f64(), c))
+            };
+        let tris = || scene.triangles.clone();
+        let (b4_s, b4) = timed(&|| Ok(Box::new(Bvh4::from_bvh(bvh, tris())?)))?;
+        let (b8_s, b8) = timed(&|| Ok(Box::new(Bvh8::from_bvh(bvh, tris())?)))?;
+        let (cw_s, cw) = timed(&|| Ok(Box::new(CwBvh::from_bvh(bvh, tris())?)))?;
+        let t = Instant::now();
+        let (sb8, sbvh_peak) = crate::meter::peak_during(|| {
+            let sbvh = Bvh::build(
+                &scene.triangles,
+                &BuildOptions::new(Builder::Sbvh).with_max_leaf_size(o.build.max_leaf_size),
+            );
+            Bvh8::from_bvh(&sbvh, tris())
+        });
+        let sb8: Box<dyn Contender> = Box::new(sb8?);
+        let sb8_s = t.elapsed().as_secs_f64();
+        let mut configs = vec![format!(
+            "raytree: {} builder, leaves of at most {} triangles (bvh8 sbvh: the SBVH builder); bvh4/bvh8/cwbvh collapsed by SAH; wide kernels on the {} SIMD path; build times include the BVH build",
+            o.build.builder.name(),
+            o.build.max_leaf_size,
+            simd::active().describe()
+        )];
+        let mut contenders: Vec<Entry<'b>> = vec![
+            (RAYTREE[1].into(), b4_s, b4),
+            (RAYTREE[2].into(), b8_s, b8),
+            (RAYTREE[3].into(), cw_s, cw),
+            (RAYTREE[4].into(), sb8_s, sb8),
+        ];
+        #[cfg(feature = "obvhs")]
+        {
+            contenders.extend(obvhs::contenders(scene, bvh));
+            configs.push("obvhs: its BVH2 over raytree's tree, its PLOC build (medium), its CWBVH; raytree's triangle test".into());
+        }
+        #[cfg(all(feature = "tinybvh", target_feature = "avx2"))]
+        {
+            let (peers, config) = tinybvh::contenders(scene)?;
+            contenders.extend(peers);
+            configs.push(config);
+        }
+        #[cfg(feature = "embree")]
+        for q in [embree::Quality::Medium, embree::Quality::High] {
+            let (peer, build_s) = embree::Peer::build(scene, q, rayon::current_num_threads())?;
+            configs.push(peer.config.clone());
+            contenders.push((q.contender().into(), build_s, Box::new(peer)));
+        }
+        Ok(Round {
+            contenders,
+            configs,
+            sbvh_peak,
+        })
+    }
+}
+
+/// raytree's SAH tree, built with its binary layout (the `raytree bvh
+/// stack` row, with which the rays are made).
+struct Sah {
+    bvh: Bvh,
+    /// Seconds to build the tree.
+    bvh_s: f64,
+    /// Seconds to build the tree and the layout.
+    layout_s: f64,
+    /// The most heap both held at once.
+    peak: Option<u64>,
+}
+
+impl Sah {
+    fn build(scene: &Scene, o: &Options) -> Result<(Self, BinaryBvh)> {
+        let start = Instant::now();
+        let ((bvh, bvh_s, layout), peak) = crate::meter::peak_during(|| {
+            let bvh = Bvh::build(&scene.triangles, &o.build);
+            let bvh_s = start.elapsed().as_secs_f64();
+            let layout = BinaryBvh::from_bvh(&bvh, scene.triangles.clone());
+            (bvh, bvh_s, layout)
+        });
+        let layout = layout?;
+        let sah = Sah {
+            layout_s: start.elapsed().as_secs_f64(),
+            bvh,
+            bvh_s,
+            peak,
+        };
+        Ok((sah, layout))
+    }
+}
+
 /// Builds every available contender over `scene`, traces the three sets
 /// through each (on the current rayon pool) and reports.
+///
+/// Every contender is built [`Options::build_repeats`] times, the
+/// contenders taking turns, and its fastest build is reported: the first
+/// use of fresh memory in a process is slow on some virtual machines
+/// (the host backs each page as it is first touched), which would
+/// otherwise be charged to whichever contender builds first.
 pub fn run_scene(scene: &Scene, o: &Options, tick: &(dyn Fn() + Sync)) -> Result<SceneResult> {
-    let start = Instant::now();
-    let ((bvh, bvh_s, layout), sah_peak) = crate::meter::peak_during(|| {
-        let bvh = Bvh::build(&scene.triangles, &o.build);
-        let bvh_s = start.elapsed().as_secs_f64();
-        let layout = BinaryBvh::from_bvh(&bvh, scene.triangles.clone());
-        (bvh, bvh_s, layout)
-    });
-    let layout = layout?;
-    let raytree_build = start.elapsed().as_secs_f64();
-    let sets = RaySets::new(scene, &layout, o);
-    let timed = |f: &dyn Fn() -> Result<Box<dyn Contender>>| -> Result<(f64, Box<dyn Contender>)> {
-        let t = Instant::now();
-        let c = f()?;
-        Ok((bvh_s + t.elapsed().as_secs_f64(), c))
+    // The fastest build of each contender, in the rows' order (raytree's
+    // binary BVH first).
+    let mut fastest_build: Vec<f64> = Vec::new();
+    let mut keep = |sah: &Sah, round: &Round| {
+        let times = std::iter::once(sah.layout_s).chain(round.contenders.iter().map(|c| c.1));
+        fastest_build.resize(round.contenders.len() + 1, f64::INFINITY);
+        for (best, s) in fastest_build.iter_mut().zip(times) {
+            *best = best.min(s);
+        }
     };
-    let tris = || scene.triangles.clone();
-    let (b4_s, b4) = timed(&|| Ok(Box::new(Bvh4::from_bvh(&bvh, tris())?)))?;
-    let (b8_s, b8) = timed(&|| Ok(Box::new(Bvh8::from_bvh(&bvh, tris())?)))?;
-    let (cw_s, cw) = timed(&|| Ok(Box::new(CwBvh::from_bvh(&bvh, tris())?)))?;
-    let t = Instant::now();
-    let (sb8, sbvh_peak) = crate::meter::peak_during(|| {
-        let sbvh = Bvh::build(
-            &scene.triangles,
-            &BuildOptions::new(Builder::Sbvh).with_max_leaf_size(o.build.max_leaf_size),
-        );
-        Bvh8::from_bvh(&sbvh, tris())
-    });
-    let sb8: Box<dyn Contender> = Box::new(sb8?);
-    let sb8_s = t.elapsed().as_secs_f64();
-    let mut configs = vec![format!(
-        "raytree: {} builder, leaves of at most {} triangles (bvh8 sbvh: the SBVH builder); bvh4/bvh8/cwbvh collapsed by SAH; wide kernels on the {} SIMD path; build times include the BVH build",
-        o.build.builder.name(),
-        o.build.max_leaf_size,
-        simd::active().describe()
-    )];
-    let mut contenders: Vec<(String, f64, Box<dyn Contender + '_>)> = vec![
-        (RAYTREE[0].into(), raytree_build, Box::new(layout)),
-        (RAYTREE[1].into(), b4_s, b4),
-        (RAYTREE[2].into(), b8_s, b8),
-        (RAYTREE[3].into(), cw_s, cw),
-        (RAYTREE[4].into(), sb8_s, sb8),
-    ];
-    #[cfg(feature = "obvhs")]
-    {
-        contenders.extend(obvhs::contenders(scene, &bvh));
-        configs.push("obvhs: its BVH2 over raytree's tree, its PLOC build (medium), its CWBVH; raytree's triangle test".into());
+    for _ in 1..o.build_repeats.max(1) {
+        let (sah, _layout) = Sah::build(scene, o)?;
+        keep(&sah, &Round::build(scene, o, &sah)?);
     }
-    #[cfg(all(feature = "tinybvh", target_feature = "avx2"))]
-    {
-        let (peers, config) = tinybvh::contenders(scene)?;
-        contenders.extend(peers);
-        configs.push(config);
-    }
-    #[cfg(feature = "embree")]
-    for q in [embree::Quality::Medium, embree::Quality::High] {
-        let (peer, build_s) = embree::Peer::build(scene, q, rayon::current_num_threads())?;
-        configs.push(peer.config.clone());
-        contenders.push((q.contender().into(), build_s, Box::new(peer)));
-    }
-
+    let (sah, layout) = Sah::build(scene, o)?;
+    let round = Round::build(scene, o, &sah)?;
+    keep(&sah, &round);
+    let Round {
+        mut contenders,
+        configs,
+        sbvh_peak,
+    } = round;
+    let sets = RaySets::new(scene, &layout, o);
+    contenders.insert(0, (RAYTREE[0].into(), sah.layout_s, Box::new(layout)));
     let mut rows: Vec<Row> = contenders
         .iter()
-        .map(|(name, build_s, _)| Row {
+        .zip(&fastest_build)
+        .map(|((name, _, _), build_s)| Row {
             contender: name.clone(),
             picked: Vec::new(),
             build_s: *build_s,
             build_peak_heap_bytes: match name.as_str() {
-                n if n == RAYTREE[0] => sah_peak,
+                n if n == RAYTREE[0] => sah.peak,
                 n if n == RAYTREE[4] => sbvh_peak,
                 _ => None,
             },
@@ -464,6 +540,18 @@ pub fn markdown(r: &SceneResult) -> String {
 /// Geometric means over scenes of each contender's speed relative to
 /// another's (`of` over `to`, per workload; above 1: `of` is faster), for
 /// the contenders present in every scene.
+/// The geometric mean over `results` of contender `of`'s build time over
+/// contender `to`'s (below 1: `of` builds faster), if both ran everywhere.
+pub fn geomean_build_ratio(results: &[SceneResult], of: &str, to: &str) -> Option<f64> {
+    let mut log = 0.0;
+    for r in results {
+        let a = r.rows.iter().find(|x| x.contender == of)?;
+        let b = r.rows.iter().find(|x| x.contender == to)?;
+        log += (a.build_s / b.build_s).ln();
+    }
+    Some((log / results.len().max(1) as f64).exp())
+}
+
 pub fn geomean_ratios(results: &[SceneResult], of: &str, to: &str) -> Option<Vec<(String, f64)>> {
     let mut logs = vec![0.0; WORKLOADS.len()];
     for r in results {
