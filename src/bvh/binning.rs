@@ -184,31 +184,53 @@ fn truncate_to_bins(v: Vec3A, nbins: usize) -> IVec3 {
 /// little faster than 32 and 128 on dragon.obj).
 const SMALL_NODE: usize = 64;
 
-/// The SAH sweep over one axis's filled bins `filled` (bin index and bin,
-/// in increasing order), keeping in `best` the cheapest boundary seen
-/// (the first on ties).
+/// One axis's filled bins, in increasing order: their indices and the bins.
+/// Two lists rather than one of pairs: a pair assembled on the stack and
+/// copied in was read back across two stores (a failed store forward) at
+/// every push.
+#[derive(Default)]
+struct Filled {
+    keys: ArrayVec<usize, MAX_BINS>,
+    bins: ArrayVec<Bin, MAX_BINS>,
+}
+
+impl Filled {
+    fn clear(&mut self) {
+        self.keys.clear();
+        self.bins.clear();
+    }
+
+    fn push(&mut self, k: usize, bin: Bin) {
+        self.keys.push(k);
+        self.bins.push(bin);
+    }
+}
+
+/// The SAH sweep over one axis's filled bins `filled`, keeping in `best`
+/// the cheapest boundary seen (the first on ties).
 ///
 /// Only filled bins are visited: the boundaries that empty bins separate
 /// cost the same (a union with an empty box is exact), and the first of
 /// them, right after a filled bin, is the one a sweep over every bin keeps.
 /// So the costs, and the split chosen, are those of the full sweep, bit
 /// for bit.
-fn sweep(map: &BinMap, filled: &[(usize, Bin)], inv_area: f32, best: &mut Option<Split>) {
+fn sweep(map: &BinMap, filled: &Filled, inv_area: f32, best: &mut Option<Split>) {
+    let bins = &filled.bins[..];
     let mut right_cost = [0.0f32; MAX_BINS];
-    // From the right: right_cost[j] = A(filled[j..]) * N(filled[j..]).
+    // From the right: right_cost[j] = A(bins[j..]) * N(bins[j..]).
     let mut acc = EMPTY_BIN;
-    for j in (1..filled.len()).rev() {
-        acc.join(&filled[j].1);
+    for j in (1..bins.len()).rev() {
+        acc.join(&bins[j]);
         right_cost[j] = acc.area() * acc.count as f32;
     }
     let mut acc = EMPTY_BIN;
-    for j in 1..filled.len() {
-        acc.join(&filled[j - 1].1);
+    for j in 1..bins.len() {
+        acc.join(&bins[j - 1]);
         let cost = 1.0 + (acc.area() * acc.count as f32 + right_cost[j]) * inv_area;
         if best.is_none_or(|b| cost < b.cost) {
             *best = Some(Split {
                 map: *map,
-                bin: filled[j - 1].0 + 1,
+                bin: filled.keys[j - 1] + 1,
                 cost,
             });
         }
@@ -260,7 +282,7 @@ pub fn best_split(
         0.0
     };
     let mut best: Option<Split> = None;
-    let mut filled: ArrayVec<(usize, Bin), MAX_BINS> = ArrayVec::new();
+    let mut filled = Filled::default();
     if refs.len() <= SMALL_NODE {
         // Few triangles: each axis's filled bins found from a mask of the
         // bins hit, and only those filled, rather than `3·nbins` bins
@@ -279,13 +301,11 @@ pub fn best_split(
             while hit != 0 {
                 let k = hit.trailing_zeros() as usize;
                 hit &= hit - 1;
-                slot_of[k] = filled.len() as u8;
-                filled.push((k, EMPTY_BIN));
+                slot_of[k] = filled.keys.len() as u8;
+                filled.push(k, EMPTY_BIN);
             }
             for (k, r) in ks.iter().zip(refs) {
-                filled[slot_of[k[a] as usize & (MAX_BINS - 1)] as usize]
-                    .1
-                    .add(r.min(), r.max());
+                filled.bins[slot_of[k[a] as usize & (MAX_BINS - 1)] as usize].add(r.min(), r.max());
             }
             sweep(map, &filled, inv_area, &mut best);
         }
@@ -324,13 +344,11 @@ pub fn best_split(
     for (m, map) in maps.iter().enumerate() {
         let axis_bins = &bins[m * nbins..(m + 1) * nbins];
         filled.clear();
-        filled.extend(
-            axis_bins
-                .iter()
-                .enumerate()
-                .filter(|(_, b)| b.count > 0)
-                .map(|(k, b)| (k, *b)),
-        );
+        for (k, b) in axis_bins.iter().enumerate() {
+            if b.count > 0 {
+                filled.push(k, *b);
+            }
+        }
         sweep(map, &filled, inv_area, &mut best);
     }
     best
