@@ -34,7 +34,13 @@ import tempfile
 import time
 from pathlib import Path
 
-import numpy as np
+# numpy's BLAS threads spin for a while after each call that uses them
+# (the rays are made with numpy, and trimesh's intersector is numpy),
+# taking a core from whichever contender is timed next on a small
+# machine; the contenders' own threads do not use BLAS.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402
 
 import raytree
 
