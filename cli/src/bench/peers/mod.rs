@@ -537,9 +537,6 @@ pub fn markdown(r: &SceneResult) -> String {
     s
 }
 
-/// Geometric means over scenes of each contender's speed relative to
-/// another's (`of` over `to`, per workload; above 1: `of` is faster), for
-/// the contenders present in every scene.
 /// The geometric mean over `results` of contender `of`'s build time over
 /// contender `to`'s (below 1: `of` builds faster), if both ran everywhere.
 pub fn geomean_build_ratio(results: &[SceneResult], of: &str, to: &str) -> Option<f64> {
@@ -552,6 +549,9 @@ pub fn geomean_build_ratio(results: &[SceneResult], of: &str, to: &str) -> Optio
     Some((log / results.len().max(1) as f64).exp())
 }
 
+/// Geometric means over scenes of each contender's speed relative to
+/// another's (`of` over `to`, per workload; above 1: `of` is faster), for
+/// the contenders present in every scene.
 pub fn geomean_ratios(results: &[SceneResult], of: &str, to: &str) -> Option<Vec<(String, f64)>> {
     let mut logs = vec![0.0; WORKLOADS.len()];
     for r in results {
