@@ -637,6 +637,47 @@ mod tests {
         assert!(bvh.stats.depth <= 6);
     }
 
+    /// Triangles with a NaN or infinite coordinate are left out as
+    /// degenerate (they once reached the median split's comparison, which
+    /// panicked), by every builder, and the others are still found.
+    #[test]
+    fn triangles_with_non_finite_coordinates_are_left_out() {
+        let good = |x: f32| {
+            Triangle::new(
+                Vec3::new(x, 0.0, 0.0),
+                Vec3::new(x + 1.0, 0.0, 0.0),
+                Vec3::new(x, 1.0, 0.0),
+            )
+        };
+        let mut tris: Vec<Triangle> = (0..200).map(|i| good(i as f32 * 0.25)).collect();
+        for (k, bad) in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY]
+            .into_iter()
+            .enumerate()
+        {
+            for j in 0..20 {
+                let mut t = good(j as f32);
+                match j % 3 {
+                    0 => t.a.x = bad,
+                    1 => t.b.y = bad,
+                    _ => t.c.z = bad,
+                }
+                tris.insert(7 * (k * 20 + j) % tris.len(), t);
+            }
+        }
+        for builder in Builder::ALL {
+            for leaf in [1, 8] {
+                let bvh = Bvh::build(&tris, &BuildOptions::new(builder).with_max_leaf_size(leaf));
+                bvh.validate(&tris).unwrap();
+                assert_eq!(bvh.stats.degenerate_triangles, 60, "{builder:?}");
+                let mut kept: Vec<u32> = bvh.prims.clone();
+                kept.sort_unstable();
+                kept.dedup();
+                assert_eq!(kept.len(), 200, "{builder:?}");
+                assert!(kept.iter().all(|&p| !tris[p as usize].is_degenerate()));
+            }
+        }
+    }
+
     #[test]
     fn degenerate_triangles_are_left_out() {
         let good = Triangle::new(Vec3::ZERO, Vec3::X, Vec3::Y);

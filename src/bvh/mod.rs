@@ -44,7 +44,8 @@ pub struct BuildStats {
     pub depth: u32,
     /// SAH cost with a traversal cost of 1 and an intersection cost of 1.
     pub sah_cost: f64,
-    /// Triangles of the mesh left out because they have zero area.
+    /// Triangles of the mesh left out because they have zero area (or a
+    /// NaN or infinite coordinate: [`crate::geometry::Triangle::is_degenerate`]).
     pub degenerate_triangles: usize,
     /// What [`Bvh::optimize`] did to the tree, if it ran (not kept in saved
     /// files).

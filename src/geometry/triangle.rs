@@ -76,9 +76,14 @@ impl Triangle {
         (self.b - self.a).cross(self.c - self.a)
     }
 
-    /// Zero area, judged in f64 so that tiny but real triangles are kept.
-    /// Structures leave such triangles out: they can never be hit.
+    /// Zero area, judged in f64 so that tiny but real triangles are kept,
+    /// or a coordinate that is NaN or infinite (which scene loading
+    /// refuses, but a program may pass to `Bvh::build` itself). Structures
+    /// leave such triangles out: they can never be hit.
     pub fn is_degenerate(&self) -> bool {
+        if !(self.a.is_finite() && self.b.is_finite() && self.c.is_finite()) {
+            return true;
+        }
         let (a, b, c) = (self.a.as_dvec3(), self.b.as_dvec3(), self.c.as_dvec3());
         (b - a).cross(c - a) == DVec3::ZERO
     }
