@@ -503,14 +503,14 @@ fn partition_parallel(
         .map(|(chunk, (l, r))| {
             let mut sides = Sides::new();
             let (mut nl, mut nr) = (0, 0);
-            for id in chunk {
-                let goes_left = left(id.centroid());
-                sides.add(id, goes_left);
+            for p in chunk {
+                let goes_left = left(p.centroid());
+                sides.add(p, goes_left);
                 if goes_left {
-                    l[nl] = *id;
+                    l[nl] = *p;
                     nl += 1;
                 } else {
-                    r[nr] = *id;
+                    r[nr] = *p;
                     nr += 1;
                 }
             }
