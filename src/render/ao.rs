@@ -180,7 +180,7 @@ pub(super) struct EyeSample {
 /// Eye ray `sample` of pixel (`x`, `y`) of a `w`×`h` image in the form of
 /// `s`, and the sample's random stream after drawing it.
 pub(crate) fn eye_ray_of(
-    scene: &crate::scene::Scene,
+    camera: &crate::scene::Projection,
     s: &AoSettings,
     (x, y): (usize, usize),
     (w, h): (usize, usize),
@@ -188,7 +188,7 @@ pub(crate) fn eye_ray_of(
 ) -> (Ray, Pcg32) {
     let mut rng = Pcg32::new((y * w + x) as u64, sample as u64);
     let ray = eye_ray_sampled(
-        scene,
+        camera,
         (x, y),
         (w, h),
         (sample, s.eye_rays),
@@ -229,7 +229,7 @@ pub(super) fn eye_sample<A: Accel, S: RaySink>(
     sample: u32,
     stats: &mut S,
 ) -> EyeSample {
-    let (ray, rng) = eye_ray_of(ctx.scene, s, (x, y), (ctx.width, ctx.height), sample);
+    let (ray, rng) = eye_ray_of(&ctx.camera, s, (x, y), (ctx.width, ctx.height), sample);
     stats.ray();
     let mut facing = 0.0;
     let hit = accel.closest_hit(&ray, stats).map(|hit| {
@@ -240,29 +240,50 @@ pub(super) fn eye_sample<A: Accel, S: RaySink>(
     EyeSample { hit, facing, rng }
 }
 
-/// Occlusion ray `k` of `s.ao_rays` from a hit at `origin`, spread in the
-/// hit's `frame` ([`ao_frame`]), in the form `s` asks for, drawing from
-/// `rng`.
+/// The `s.ao_rays` occlusion rays of a hit at `origin`, spread in the hit's
+/// `frame` ([`ao_frame`]), in the form `s` asks for, drawing from `rng`:
+/// `each` is called with every ray in order until it returns `false`. The
+/// paper's forms make their directions four at a time
+/// ([`Sampling::sample4`], [`Frame::cosine_paper4`], [`Ray::new4`]), the
+/// same rays bit for bit as one at a time.
 #[inline]
-pub(crate) fn ao_ray(s: &AoSettings, origin: Vec3, frame: &Frame, k: u32, rng: &mut Pcg32) -> Ray {
+pub(crate) fn ao_rays(
+    s: &AoSettings,
+    origin: Vec3,
+    frame: &Frame,
+    rng: &mut Pcg32,
+    mut each: impl FnMut(Ray) -> bool,
+) {
     match (s.query, s.sampling) {
         // The default render's draws, bit for bit.
-        (AoQuery::Any, Sampling::Independent) => Ray::new(origin, frame.cosine(rng), 0.0, s.radius),
+        (AoQuery::Any, Sampling::Independent) => {
+            for _ in 0..s.ao_rays {
+                if !each(Ray::new(origin, frame.cosine(rng), 0.0, s.radius)) {
+                    return;
+                }
+            }
+        }
         (query, sampling) => {
-            let (u, v) = sampling.sample(k, s.ao_rays, rng);
-            let d = frame.cosine_paper(u, v);
             let tmin = if query == AoQuery::Closest {
                 PAPER_TMIN
             } else {
                 0.0
             };
-            Ray::new(origin, d, tmin, s.radius)
+            for first in (0..s.ao_rays).step_by(4) {
+                let (u, v) = sampling.sample4(first, s.ao_rays, rng);
+                let rays = Ray::new4(origin, frame.cosine_paper4(u, v), tmin, s.radius);
+                for ray in &rays[..(s.ao_rays - first).min(4) as usize] {
+                    if !each(*ray) {
+                        return;
+                    }
+                }
+            }
         }
     }
 }
 
 /// The basis the occlusion rays of a hit with unit normal `n` spread in,
-/// in the form of `s`: made once per hit, read by [`ao_ray`].
+/// in the form of `s`: made once per hit, read by [`ao_rays`].
 #[inline]
 pub(crate) fn ao_frame(s: &AoSettings, n: Vec3) -> Frame {
     match (s.query, s.sampling) {
@@ -285,8 +306,7 @@ pub(super) fn ao_value<A: Accel, S: RaySink>(
     };
     let mut open = 0u32;
     let frame = ao_frame(s, n);
-    for k in 0..s.ao_rays {
-        let ray = ao_ray(s, origin, &frame, k, &mut e.rng);
+    ao_rays(s, origin, &frame, &mut e.rng, |ray| {
         stats.ray();
         let blocked = match s.query {
             AoQuery::Any => accel.any_hit(&ray, stats).is_some(),
@@ -295,7 +315,8 @@ pub(super) fn ao_value<A: Accel, S: RaySink>(
         if !blocked {
             open += 1;
         }
-    }
+        true
+    });
     let ao = open as f32 / s.ao_rays.max(1) as f32;
     if s.facing {
         ao * (0.25 + 0.75 * e.facing)

@@ -81,6 +81,7 @@ fn phased_with<A: Accel, S: RaySink + Default>(
         scene,
         width,
         height,
+        camera: super::sampling::image_projection(scene, width, height),
     };
     let n = s.eye_rays as usize;
     let pixels: Vec<usize> = (0..width * height).collect();

@@ -92,6 +92,7 @@ fn render_with<A: Accel, S: RaySink + Default>(
         scene,
         width,
         height,
+        camera: sampling::image_projection(scene, width, height),
     };
     let results: Vec<(Vec<(f32, Tally)>, Counters)> = crate::par::map(&tiles, &|&(tx, ty)| {
         let mut sink = S::default();
@@ -134,6 +135,8 @@ struct Ctx<'a> {
     scene: &'a Scene,
     width: usize,
     height: usize,
+    /// The scene camera's projection for the image, made once.
+    camera: crate::scene::Projection,
 }
 
 /// Sinks that know how many rays were traced.

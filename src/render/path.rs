@@ -47,7 +47,7 @@ pub(super) fn pixel<A: Accel, S: RaySink>(
     let mut sum = 0.0;
     for sample in 0..s.samples {
         let mut rng = Pcg32::new(pixel, sample as u64);
-        let mut ray = eye_ray(ctx.scene, x, y, ctx.width, ctx.height, &mut rng);
+        let mut ray = eye_ray(&ctx.camera, x, y, ctx.width, ctx.height, &mut rng);
         let mut throughput = 1.0;
         for _ in 0..=s.bounces {
             stats.ray();

@@ -2,7 +2,7 @@
 //! integrator would trace and the bounce rays of the path integrator,
 //! generated with the same sampling.
 
-use super::sampling::{cosine_hemisphere, eye_ray, facing_normal, offset_origin};
+use super::sampling::{cosine_hemisphere, eye_ray, facing_normal, image_projection, offset_origin};
 use crate::geometry::Ray;
 use crate::rng::Pcg32;
 use crate::scene::Scene;
@@ -11,12 +11,13 @@ use crate::structures::Accel;
 
 /// `spp` jittered eye rays per pixel of a `w`×`h` image (coherent rays).
 pub fn eye_rays(scene: &Scene, w: usize, h: usize, spp: u32) -> Vec<Ray> {
+    let camera = image_projection(scene, w, h);
     let mut rays = Vec::with_capacity(w * h * spp as usize);
     for y in 0..h {
         for x in 0..w {
             for s in 0..spp {
                 let mut rng = Pcg32::new((y * w + x) as u64, s as u64);
-                rays.push(eye_ray(scene, x, y, w, h, &mut rng));
+                rays.push(eye_ray(&camera, x, y, w, h, &mut rng));
             }
         }
     }
@@ -66,18 +67,20 @@ pub fn ao_workload<A: Accel>(
     w: usize,
     h: usize,
 ) -> (Vec<(Ray, std::ops::Range<usize>)>, Vec<Ray>) {
+    let camera = image_projection(scene, w, h);
     let (mut eye, mut ao) = (Vec::new(), Vec::new());
     for y in 0..h {
         for x in 0..w {
             for sample in 0..s.eye_rays {
-                let (ray, mut rng) = super::ao::eye_ray_of(scene, s, (x, y), (w, h), sample);
+                let (ray, mut rng) = super::ao::eye_ray_of(&camera, s, (x, y), (w, h), sample);
                 let first = ao.len();
                 if let Some(hit) = accel.closest_hit(&ray, &mut NoStats) {
                     let (origin, n) = super::ao::ao_start(scene, s, &ray, &hit);
                     let frame = super::ao::ao_frame(s, n);
-                    for k in 0..s.ao_rays {
-                        ao.push(super::ao::ao_ray(s, origin, &frame, k, &mut rng));
-                    }
+                    super::ao::ao_rays(s, origin, &frame, &mut rng, |r| {
+                        ao.push(r);
+                        true
+                    });
                 }
                 eye.push((ray, first..ao.len()));
             }
@@ -110,11 +113,12 @@ fn path_rays_of_row<A: Accel>(
     h: usize,
     bounces: u32,
 ) -> Vec<Ray> {
+    let camera = image_projection(scene, w, h);
     let mut rays = Vec::new();
     {
         for x in 0..w {
             let mut rng = Pcg32::new((y * w + x) as u64, 0);
-            let mut ray = eye_ray(scene, x, y, w, h, &mut rng);
+            let mut ray = eye_ray(&camera, x, y, w, h, &mut rng);
             for _ in 0..bounces {
                 let Some(hit) = accel.closest_hit(&ray, &mut NoStats) else {
                     break;

@@ -2,8 +2,8 @@
 
 use crate::geometry::{Hit, Ray};
 use crate::rng::Pcg32;
-use crate::scene::Scene;
-use glam::Vec3;
+use crate::scene::{Projection, Scene};
+use glam::{Vec3, Vec4};
 
 /// A cosine-weighted direction about the unit normal `n` (Malley's method:
 /// a uniform disk point lifted to the hemisphere).
@@ -51,12 +51,44 @@ impl Frame {
     /// A cosine-weighted direction from the sample (`u`, `v`) in `[0,1)²`
     /// as the stackless paper's tracer maps it: `r² = v`, `φ = 2π·u`,
     /// `d = t·r·cos φ + b·r·sin φ + n·√(1−r²)`, normalized.
-    #[inline]
+    /// The one-sample form, kept as the reference the four-lane form is
+    /// tested against.
+    #[cfg(test)]
     pub fn cosine_paper(&self, u: f32, v: f32) -> Vec3 {
         let phi = std::f32::consts::TAU * u;
         let r = v.sqrt();
         (self.t * (phi.cos() * r) + self.b * (phi.sin() * r) + self.n * (1.0 - v).max(0.0).sqrt())
             .normalize()
+    }
+
+    /// Four cosine-weighted directions from the samples (`u[l]`, `v[l]`)
+    /// in `[0,1)²`, as the stackless paper's tracer maps a sample: `r² = v`,
+    /// `φ = 2π·u`, `d = t·r·cos φ + b·r·sin φ + n·√(1−r²)`, normalized. Each
+    /// lane computes the f32 operations of that formula in the order the
+    /// one-sample form did (and a test checks it still does), so every
+    /// direction is the one-sample form's bit for bit; the roots, products
+    /// and normalization run in four-lane vectors, the sines and cosines in
+    /// the platform's `sinf`/`cosf`, as the original's.
+    #[inline]
+    pub fn cosine_paper4(&self, u: Vec4, v: Vec4) -> [Vec3; 4] {
+        let phi = (Vec4::splat(std::f32::consts::TAU) * u).to_array();
+        let cos = Vec4::from_array(phi.map(f32::cos));
+        let sin = Vec4::from_array(phi.map(f32::sin));
+        let r = v.sqrt();
+        let (cr, sr) = (cos * r, sin * r);
+        let z = (Vec4::ONE - v).max(Vec4::ZERO).sqrt();
+        let axis = |a: usize| {
+            Vec4::splat(self.t[a]) * cr + Vec4::splat(self.b[a]) * sr + Vec4::splat(self.n[a]) * z
+        };
+        let (x, y, z) = (axis(0), axis(1), axis(2));
+        // glam's `normalize`: times 1 / sqrt(x·x + y·y + z·z), in that order.
+        let recip = Vec4::ONE / (x * x + y * y + z * z).sqrt();
+        let (x, y, z) = (
+            (x * recip).to_array(),
+            (y * recip).to_array(),
+            (z * recip).to_array(),
+        );
+        std::array::from_fn(|l| Vec3::new(x[l], y[l], z[l]))
     }
 }
 
@@ -116,6 +148,44 @@ impl Sampling {
     }
 }
 
+impl Sampling {
+    /// Samples `first` to `first + 3` of `n` as four calls of
+    /// [`Self::sample`] give them, bit for bit, drawing from `rng` in the
+    /// same order; lanes at `n` or beyond are not drawn and hold zeros.
+    #[inline]
+    pub fn sample4(self, first: u32, n: u32, rng: &mut Pcg32) -> (Vec4, Vec4) {
+        let (mut a, mut b) = ([0.0; 4], [0.0; 4]);
+        for l in 0..(n.saturating_sub(first).min(4) as usize) {
+            a[l] = rng.next_f32();
+            b[l] = rng.next_f32();
+        }
+        let (a, b) = (Vec4::from_array(a), Vec4::from_array(b));
+        match self.grid(n) {
+            None => (a, b),
+            Some(k) => {
+                let s: [u32; 4] = std::array::from_fn(|l| first + l as u32);
+                (
+                    stratum4(s.map(|s| s % k), k, a),
+                    stratum4(s.map(|s| (s / k) % k), k, b),
+                )
+            }
+        }
+    }
+}
+
+/// [`stratum`] of four lanes, the same operations lane by lane.
+#[inline(always)]
+fn stratum4(cell: [u32; 4], k: u32, xi: Vec4) -> Vec4 {
+    // The f32 just below each lane's value (all positive here).
+    let below = |x: Vec4| Vec4::from_array(x.to_array().map(|x| f32::from_bits(x.to_bits() - 1)));
+    let top = Vec4::from_array(cell.map(|c| (c + 1) as f32));
+    let v = Vec4::from_array(cell.map(|c| c as f32)) + xi;
+    let v = Vec4::select(v.cmpge(top), below(top), v);
+    let kf = Vec4::splat(k as f32);
+    let (u, edge) = (v / kf, top / kf);
+    Vec4::select(u.cmpge(edge), below(edge), u)
+}
+
 /// `(cell + xi) / k`, kept below the cell's upper edge where rounding would
 /// reach it, so that a sample always lies in its own cell.
 fn stratum(cell: u32, k: u32, xi: f32) -> f32 {
@@ -153,17 +223,31 @@ pub fn offset_origin(p: Vec3, n: Vec3) -> Vec3 {
     p + n * eps
 }
 
-/// The eye ray through pixel (`x`, `y`) jittered by `rng`.
-pub fn eye_ray(scene: &Scene, x: usize, y: usize, w: usize, h: usize, rng: &mut Pcg32) -> Ray {
+/// The eye ray through pixel (`x`, `y`) of a `w`×`h` image jittered by
+/// `rng`, through `camera` (the scene camera's [`Projection`] for the
+/// image, [`image_projection`]).
+pub fn eye_ray(
+    camera: &Projection,
+    x: usize,
+    y: usize,
+    w: usize,
+    h: usize,
+    rng: &mut Pcg32,
+) -> Ray {
     let sx = (x as f32 + rng.next_f32()) / w as f32;
     let sy = (y as f32 + rng.next_f32()) / h as f32;
-    scene.camera.ray(sx, sy, w as f32 / h as f32)
+    camera.ray(sx, sy)
+}
+
+/// The scene camera's [`Projection`] for a `w`×`h` image.
+pub fn image_projection(scene: &Scene, w: usize, h: usize) -> Projection {
+    scene.camera.projection(w as f32 / h as f32)
 }
 
 /// Eye ray `sample` of `n` through pixel (`x`, `y`), placed by `sampling`
 /// (for [`Sampling::Independent`] the same ray as [`eye_ray`]).
 pub fn eye_ray_sampled(
-    scene: &Scene,
+    camera: &Projection,
     (x, y): (usize, usize),
     (w, h): (usize, usize),
     (sample, n): (u32, u32),
@@ -173,7 +257,7 @@ pub fn eye_ray_sampled(
     let (u, v) = sampling.sample(sample, n, rng);
     let sx = (x as f32 + u) / w as f32;
     let sy = (y as f32 + v) / h as f32;
-    scene.camera.ray(sx, sy, w as f32 / h as f32)
+    camera.ray(sx, sy)
 }
 
 #[cfg(test)]
@@ -207,6 +291,59 @@ mod tests {
             Sampling::Stratified.sample(5, 8, &mut a),
             Sampling::Independent.sample(5, 8, &mut b)
         );
+    }
+
+    /// Four samples and four directions at once equal one at a time, bit
+    /// for bit, drawing the same numbers: stratified grids of every size
+    /// (and counts that are not squares), groups cut short at `n`, normals
+    /// of every orientation.
+    #[test]
+    fn four_lane_samples_and_directions_equal_one_at_a_time() {
+        let mut pick = Pcg32::new(8, 8);
+        for case in 0..3000u64 {
+            let n = [1u32, 3, 4, 9, 16, 25, 8, 64][case as usize % 8];
+            let sampling = if case % 5 == 0 {
+                Sampling::Independent
+            } else {
+                Sampling::Stratified
+            };
+            let normal = Vec3::new(
+                pick.next_f32() - 0.5,
+                pick.next_f32() - 0.5,
+                pick.next_f32() - 0.5,
+            )
+            .normalize();
+            let frame = Frame::paper(normal);
+            let (mut four, mut one) = (Pcg32::new(case, 1), Pcg32::new(case, 1));
+            for first in (0..n).step_by(4) {
+                let (u, v) = sampling.sample4(first, n, &mut four);
+                let d = frame.cosine_paper4(u, v);
+                for l in 0..(n - first).min(4) as usize {
+                    let (u1, v1) = sampling.sample(first + l as u32, n, &mut one);
+                    assert_eq!(
+                        (u[l].to_bits(), v[l].to_bits()),
+                        (u1.to_bits(), v1.to_bits())
+                    );
+                    let d1 = frame.cosine_paper(u1, v1);
+                    assert_eq!(
+                        d[l].to_array().map(f32::to_bits),
+                        d1.to_array().map(f32::to_bits)
+                    );
+                }
+            }
+            assert_eq!(four.next_u32(), one.next_u32(), "the same numbers drawn");
+        }
+        // The largest draw in every cell: the clamps below the cell's edge
+        // lane by lane as in the scalar form.
+        let xi = 1.0 - 1.0 / (1 << 24) as f32;
+        for k in [3u32, 4, 7, 16] {
+            let cells = [0, 1, k - 2, k - 1];
+            let u = stratum4(cells, k, Vec4::splat(xi)).to_array();
+            for l in 0..4 {
+                assert_eq!(u[l].to_bits(), stratum(cells[l], k, xi).to_bits());
+                assert!(u[l] < (cells[l] + 1) as f32 / k as f32);
+            }
+        }
     }
 
     #[test]

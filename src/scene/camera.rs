@@ -216,20 +216,62 @@ impl Camera {
     /// component, gives rays that are not valid: every structure answers
     /// them with a miss (see [`Ray::new`]).
     pub fn ray(&self, x: f32, y: f32, aspect: f32) -> Ray {
+        self.projection(aspect).ray(x, y)
+    }
+
+    /// What [`Self::ray`] derives from the camera for an image of
+    /// width/height `aspect` (the basis, the extents), computed once, for
+    /// renders that make many rays: [`Projection::ray`] gives the same rays
+    /// bit for bit.
+    pub fn projection(&self, aspect: f32) -> Projection {
         let (forward, right, up) = self.basis();
-        let (px, py) = match self.fov {
-            // The same operations as before the other kinds existed, so that
-            // images stay bit-identical.
+        // `ex · ex_scale` in that order: the vertical angle's form, `h·aspect`
+        // applied after the pixel coordinate, as before the other kinds
+        // existed, so that images stay bit-identical (times 1 for the others).
+        let (ex, ex_scale, ey) = match self.fov {
             Fov::Vertical(a) => {
                 let h = (a.to_radians() * 0.5).tan();
-                ((2.0 * x - 1.0) * h * aspect, (1.0 - 2.0 * y) * h)
+                (h, aspect, h)
             }
             fov => {
                 let (ex, ey) = fov.extents(aspect);
-                ((2.0 * x - 1.0) * ex, (1.0 - 2.0 * y) * ey)
+                (ex, 1.0, ey)
             }
         };
-        Ray::infinite(self.eye, (forward + right * px + up * py).normalize())
+        Projection {
+            eye: self.eye,
+            forward,
+            right,
+            up,
+            ex,
+            ex_scale,
+            ey,
+        }
+    }
+}
+
+/// A camera's rays for one image shape ([`Camera::projection`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Projection {
+    eye: Vec3,
+    forward: Vec3,
+    right: Vec3,
+    up: Vec3,
+    ex: f32,
+    ex_scale: f32,
+    ey: f32,
+}
+
+impl Projection {
+    /// [`Camera::ray`] through image point (`x`, `y`) in `[0,1]²`, `y` down.
+    #[inline]
+    pub fn ray(&self, x: f32, y: f32) -> Ray {
+        let px = (2.0 * x - 1.0) * self.ex * self.ex_scale;
+        let py = (1.0 - 2.0 * y) * self.ey;
+        Ray::infinite(
+            self.eye,
+            (self.forward + self.right * px + self.up * py).normalize(),
+        )
     }
 }
 

@@ -9,7 +9,7 @@ mod ply;
 pub mod procedural;
 mod stl;
 
-pub use camera::{Camera, Fov};
+pub use camera::{Camera, Fov, Projection};
 pub use mesh::{Geometry, LoadOptions, LoadReport, Mesh, EXTENSIONS};
 
 use crate::error::{Error, Result};

@@ -17,7 +17,12 @@
 //! sign bit set, so leaves store no count. The root's own box (the scene box)
 //! is kept beside the nodes and not counted in [`Accel::bytes`]: every
 //! structure has it.
+//!
+//! STACK runs over a copy derived from these words (`lines.rs`: each inner
+//! node on one 64-byte cache line, leaves referenced by their first triangle
+//! block), as it runs over the leaves' triangle blocks rather than the list.
 
+mod lines;
 mod saved;
 mod stack;
 
@@ -65,6 +70,9 @@ pub struct BinaryBvh {
     inner_nodes: usize,
     leaves: usize,
     pub(crate) depth: u32,
+    /// The traversal's copy of the inner nodes (`lines.rs`), derived from
+    /// `words` and `blocks`.
+    pub(crate) lines: lines::Lines,
 }
 
 impl BinaryBvh {
@@ -99,11 +107,13 @@ impl BinaryBvh {
             inner_nodes: bvh.stats.inner_nodes,
             leaves: bvh.stats.leaves,
             depth: bvh.stats.depth,
+            lines: lines::Lines::default(),
         };
         b.root = b.place(bvh, ROOT);
         b.fill(bvh, ROOT, b.root);
         debug_assert_eq!(b.words.len(), words_needed);
         b.blocks = LeafBlocks::new(&b.index, &b.triangles);
+        b.lines = lines::Lines::new(&b);
         crate::pages::advise(&b.words);
         Ok(b)
     }
@@ -184,6 +194,13 @@ impl BinaryBvh {
     /// Bytes of the nodes: 52 per inner node, 4 per leaf.
     pub fn node_bytes(&self) -> usize {
         self.words.len() * 4
+    }
+
+    /// Bytes of the traversal's copy of the inner nodes, derived from the
+    /// words and not counted in [`Accel::bytes`]: 64 per inner node (each on
+    /// its own cache line, children referenced directly).
+    pub fn line_bytes(&self) -> usize {
+        self.lines.bytes()
     }
 
     /// Bytes of the triangle index list: 4 per triangle reference.
@@ -319,5 +336,57 @@ mod tests {
             }
         }
         assert_eq!(seen, bvh.nodes.len());
+    }
+
+    /// The traversal's lines hold the words' boxes, one cache line per
+    /// inner node, and reference each leaf's own blocks: walked from the
+    /// root, they give the canonical tree.
+    #[test]
+    fn lines_hold_the_tree_one_cache_line_per_inner_node() {
+        for (spec, opts) in [
+            ("chess:3000", BuildOptions::sah()),
+            ("hairball:2000", BuildOptions::hybrid()),
+        ] {
+            let scene = Scene::builtin(spec).unwrap();
+            let bvh = Bvh::build(&scene.triangles, &opts);
+            let b = BinaryBvh::from_bvh(&bvh, scene.triangles.clone()).unwrap();
+            let lines = &b.lines;
+            assert_eq!(lines.nodes.len(), bvh.stats.inner_nodes);
+            assert_eq!(b.line_bytes(), 64 * bvh.stats.inner_nodes);
+            assert_eq!(lines.nodes.as_ptr() as usize % 64, 0);
+            let blocks = b.blocks.blocks();
+            let mut todo = vec![(lines.root, ROOT)];
+            let mut seen = 0;
+            while let Some((r, id)) = todo.pop() {
+                seen += 1;
+                assert_eq!(lines.canonical_id(r), id);
+                let node = &bvh.nodes[id as usize];
+                match node.kind {
+                    NodeKind::Leaf { .. } => {
+                        assert!(r & LAST != 0);
+                        let mut prims = vec![];
+                        'blocks: for blk in &blocks[(r & !LAST) as usize..] {
+                            for &p in &blk.prims[..blk.count()] {
+                                prims.push(p & !LAST);
+                                if p & LAST != 0 {
+                                    break 'blocks;
+                                }
+                            }
+                        }
+                        assert_eq!(prims, bvh.leaf_prims(node));
+                    }
+                    NodeKind::Inner { left, right, .. } => {
+                        assert!(r & LAST == 0);
+                        let n = &lines.nodes[r as usize];
+                        let boxes = unpair_boxes(&n.planes);
+                        for (k, c) in [left, right].into_iter().enumerate() {
+                            assert_eq!(boxes[k], bvh.nodes[c as usize].bounds);
+                            todo.push((n.child[k], c));
+                        }
+                    }
+                }
+            }
+            assert_eq!(seen, bvh.nodes.len());
+        }
     }
 }

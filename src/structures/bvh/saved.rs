@@ -108,7 +108,7 @@ impl BinaryBvh {
         let offsets = starts.iter().map(|i| i as u32).collect();
         let blocks = LeafBlocks::new(&index, &triangles);
         crate::pages::advise(&words);
-        Ok(BinaryBvh {
+        let mut b = BinaryBvh {
             words,
             index,
             blocks,
@@ -120,6 +120,9 @@ impl BinaryBvh {
             inner_nodes: inner,
             leaves,
             depth,
-        })
+            lines: Default::default(),
+        };
+        b.lines = super::lines::Lines::new(&b);
+        Ok(b)
     }
 }

@@ -4,17 +4,16 @@
 //! only: a popped node is always visited, even if its box now lies beyond
 //! the closest hit. Ties between the two children go to the left.
 
-use super::{
-    BinaryBvh, NodeRef, INNER_WORDS, LAST, LEFT_LEAF, OFFSET_MASK, PAIR_PLANES, RIGHT_LEAF,
-};
+use super::{BinaryBvh, NodeRef, LAST, PAIR_PLANES};
 use crate::geometry::{Hit, Ray};
 use crate::stats::Stats;
 use crate::structures::shared::leaf::enter;
 use crate::structures::shared::own_box::Children;
+use crate::structures::shared::tri_block::{intersect_blocks_with, BlockRay};
 use crate::structures::shared::with_stack;
 
 /// Closest hit (`ANY = false`) or any hit (`ANY = true`) over the
-/// uncompressed binary BVH.
+/// uncompressed binary BVH, read from its cache-line copy (`lines.rs`).
 #[inline]
 pub fn trace<S: Stats, const ANY: bool>(bvh: &BinaryBvh, ray: &Ray, stats: &mut S) -> Option<Hit> {
     with_stack!(bvh.depth, trace_n::<S; ANY>(bvh, ray, stats))
@@ -30,22 +29,27 @@ fn trace_n<S: Stats, const ANY: bool, const N: usize>(
         return None;
     }
     let (br, mut tally) = enter(ray, &bvh.root_bounds.to_array(), stats)?;
+    // The triangle test's constants, once per ray rather than per leaf.
+    let tri = BlockRay::new(ray);
     let tmin = ray.tmin;
     let mut tmax = ray.tmax;
-    let words = &bvh.words[..];
+    let lines = &bvh.lines;
+    let nodes = &lines.nodes[..];
+    let blocks = bvh.blocks.blocks();
     let mut best: Option<Hit> = None;
     let mut stack = [0 as NodeRef; N];
     let mut sp = 0;
-    let mut node = bvh.root;
+    let mut node = lines.root;
     loop {
         tally.nodes += 1;
         if S::LOGS {
-            stats.visit(bvh.canonical_id(node));
+            stats.visit(lines.canonical_id(node));
         }
         if node & LAST != 0 {
-            let first = words[(node & !LAST) as usize];
-            if bvh.blocks.intersect::<ANY, S>(
-                first,
+            if intersect_blocks_with::<ANY, S>(
+                &tri,
+                blocks,
+                node & !LAST,
                 &bvh.triangles,
                 ray,
                 &mut tmax,
@@ -56,20 +60,10 @@ fn trace_n<S: Stats, const ANY: bool, const N: usize>(
                 break;
             }
         } else {
-            let at = node as usize;
-            let n: &[u32; INNER_WORDS] = words[at..at + INNER_WORDS].try_into().unwrap();
+            let n = &nodes[node as usize];
             tally.planes += PAIR_PLANES;
-            let boxes: [f32; 12] = std::array::from_fn(|k| f32::from_bits(n[k]));
-            let [tl, tr] = br.test_pair(&boxes, tmin, tmax);
-            let link = n[12];
-            let l = link & OFFSET_MASK;
-            let left = l | ((link & LEFT_LEAF != 0) as u32) << 31;
-            let r = l + if link & LEFT_LEAF != 0 {
-                1
-            } else {
-                INNER_WORDS as u32
-            };
-            let right = r | ((link & RIGHT_LEAF != 0) as u32) << 31;
+            let [tl, tr] = br.test_pair(&n.planes, tmin, tmax);
+            let [left, right] = n.child;
             match Children::of(tl, tr) {
                 Children::Both { right_first } => {
                     let (near, far) = if right_first {

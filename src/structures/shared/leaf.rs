@@ -138,3 +138,17 @@ pub fn enter_interval<S: Stats>(
     }
     Some((PlaneRay::new(&br, root), tally, tn, tf))
 }
+
+/// The canonical BVH id of reference `r` of a layout that lists its inner
+/// nodes' ids in order (wide layouts, the binary BVH's lines) and its leaves' as `(first block, id)` pairs
+/// ascending (visit logs only).
+pub fn canonical_id(node_ids: &[u32], leaf_ids: &[(u32, u32)], r: u32) -> u32 {
+    if r & LAST == 0 {
+        return node_ids[r as usize];
+    }
+    let at = r & !LAST;
+    let k = leaf_ids
+        .binary_search_by_key(&at, |&(p, _)| p)
+        .expect("a placed leaf");
+    leaf_ids[k].1
+}

@@ -112,6 +112,18 @@ impl LeafBlocks {
         std::mem::size_of_val(&self.blocks[..]) + self.start.len() * 4
     }
 
+    /// The first block of the leaf that begins at list position `first`.
+    #[inline(always)]
+    pub fn start_of(&self, first: u32) -> u32 {
+        self.start[first as usize]
+    }
+
+    /// The blocks, in leaf order.
+    #[inline(always)]
+    pub fn blocks(&self) -> &[TriBlock] {
+        &self.blocks
+    }
+
     /// [`intersect_blocks`] on the leaf that begins at list position `first`.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]

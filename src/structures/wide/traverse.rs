@@ -539,19 +539,7 @@ mod x86 {
     }
 }
 
-/// The canonical BVH id of reference `r` of a wide layout that lists its
-/// nodes' ids in order and its leaves' as `(first block, id)` pairs
-/// ascending (visit logs only).
-pub fn canonical_id(node_ids: &[u32], leaf_ids: &[(u32, u32)], r: u32) -> u32 {
-    if r & LEAF == 0 {
-        return node_ids[r as usize];
-    }
-    let at = r & !LEAF;
-    let k = leaf_ids
-        .binary_search_by_key(&at, |&(p, _)| p)
-        .expect("a placed leaf");
-    leaf_ids[k].1
-}
+pub use crate::structures::shared::leaf::canonical_id;
 
 /// Closest hit (`any = false`) or any hit on SIMD path `path` rather than
 /// the active one, so that a test can run every path the processor has.
