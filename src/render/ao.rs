@@ -172,7 +172,8 @@ impl AoSettings {
 /// occlusion rays go on drawing from.
 pub(super) struct EyeSample {
     pub hit: Option<(Vec3, Vec3)>,
-    /// `|cos θ|` between the eye ray and the normal at the hit.
+    /// `|cos θ|` between the eye ray and the normal at the hit (0 unless
+    /// the settings shade by it, [`AoSettings::facing`]).
     pub facing: f32,
     pub rng: Pcg32,
 }
@@ -187,18 +188,19 @@ pub(crate) fn eye_ray_of(
     sample: u32,
 ) -> (Ray, Pcg32) {
     let mut rng = Pcg32::new((y * w + x) as u64, sample as u64);
+    let interval = match s.query {
+        AoQuery::Any => (0.0, f32::INFINITY),
+        AoQuery::Closest => (PAPER_TMIN, PAPER_EYE_TMAX),
+    };
     let ray = eye_ray_sampled(
         camera,
         (x, y),
         (w, h),
         (sample, s.eye_rays),
         s.sampling,
+        interval,
         &mut rng,
     );
-    let ray = match s.query {
-        AoQuery::Any => ray,
-        AoQuery::Closest => Ray::new(ray.origin(), ray.direction(), PAPER_TMIN, PAPER_EYE_TMAX),
-    };
     (ray, rng)
 }
 
@@ -234,7 +236,9 @@ pub(super) fn eye_sample<A: Accel, S: RaySink>(
     let mut facing = 0.0;
     let hit = accel.closest_hit(&ray, stats).map(|hit| {
         let (origin, n) = ao_start(ctx.scene, s, &ray, &hit);
-        facing = n.dot(ray.direction().normalize()).abs();
+        if s.facing {
+            facing = n.dot(ray.direction().normalize()).abs();
+        }
         (origin, n)
     });
     EyeSample { hit, facing, rng }

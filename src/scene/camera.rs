@@ -266,12 +266,16 @@ impl Projection {
     /// [`Camera::ray`] through image point (`x`, `y`) in `[0,1]²`, `y` down.
     #[inline]
     pub fn ray(&self, x: f32, y: f32) -> Ray {
+        self.ray_over(x, y, 0.0, f32::INFINITY)
+    }
+
+    /// [`Self::ray`] over `[tmin, tmax]` rather than `[0, +inf)`.
+    #[inline]
+    pub fn ray_over(&self, x: f32, y: f32, tmin: f32, tmax: f32) -> Ray {
         let px = (2.0 * x - 1.0) * self.ex * self.ex_scale;
         let py = (1.0 - 2.0 * y) * self.ey;
-        Ray::infinite(
-            self.eye,
-            (self.forward + self.right * px + self.up * py).normalize(),
-        )
+        let d = (self.forward + self.right * px + self.up * py).normalize();
+        Ray::new(self.eye, d, tmin, tmax)
     }
 }
 
