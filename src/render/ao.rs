@@ -246,7 +246,7 @@ pub(super) fn eye_sample<A: Accel, S: RaySink>(
 
 /// The `s.ao_rays` occlusion rays of a hit at `origin`, spread in the hit's
 /// `frame` ([`ao_frame`]), in the form `s` asks for, drawing from `rng`:
-/// `each` is called with every ray in order until it returns `false`. The
+/// `each` is called with every ray, in order. The
 /// paper's forms make their directions four at a time
 /// ([`Sampling::sample4`], [`Frame::cosine_paper4`], [`Ray::new4`]), the
 /// same rays bit for bit as one at a time.
@@ -256,15 +256,13 @@ pub(crate) fn ao_rays(
     origin: Vec3,
     frame: &Frame,
     rng: &mut Pcg32,
-    mut each: impl FnMut(Ray) -> bool,
+    mut each: impl FnMut(Ray),
 ) {
     match (s.query, s.sampling) {
         // The default render's draws, bit for bit.
         (AoQuery::Any, Sampling::Independent) => {
             for _ in 0..s.ao_rays {
-                if !each(Ray::new(origin, frame.cosine(rng), 0.0, s.radius)) {
-                    return;
-                }
+                each(Ray::new(origin, frame.cosine(rng), 0.0, s.radius));
             }
         }
         (query, sampling) => {
@@ -277,9 +275,7 @@ pub(crate) fn ao_rays(
                 let (u, v) = sampling.sample4(first, s.ao_rays, rng);
                 let rays = Ray::new4(origin, frame.cosine_paper4(u, v), tmin, s.radius);
                 for ray in &rays[..(s.ao_rays - first).min(4) as usize] {
-                    if !each(*ray) {
-                        return;
-                    }
+                    each(*ray);
                 }
             }
         }
@@ -319,7 +315,6 @@ pub(super) fn ao_value<A: Accel, S: RaySink>(
         if !blocked {
             open += 1;
         }
-        true
     });
     let ao = open as f32 / s.ao_rays.max(1) as f32;
     if s.facing {

@@ -77,10 +77,7 @@ pub fn ao_workload<A: Accel>(
                 if let Some(hit) = accel.closest_hit(&ray, &mut NoStats) {
                     let (origin, n) = super::ao::ao_start(scene, s, &ray, &hit);
                     let frame = super::ao::ao_frame(s, n);
-                    super::ao::ao_rays(s, origin, &frame, &mut rng, |r| {
-                        ao.push(r);
-                        true
-                    });
+                    super::ao::ao_rays(s, origin, &frame, &mut rng, |r| ao.push(r));
                 }
                 eye.push((ray, first..ao.len()));
             }

@@ -148,9 +148,7 @@ impl Sampling {
             Some(k) => (stratum(s % k, k, a), stratum((s / k) % k, k, b)),
         }
     }
-}
 
-impl Sampling {
     /// Samples `first` to `first + 3` of `n` as four calls of
     /// [`Self::sample`] give them, bit for bit, drawing from `rng` in the
     /// same order; lanes at `n` or beyond are not drawn and hold zeros.

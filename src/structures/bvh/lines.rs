@@ -16,7 +16,7 @@
 //! leaf reached through the words costs two dependent loads (its word, then
 //! the map from list positions to blocks) before its first block.
 
-use super::{BinaryBvh, NodeRef, INNER_WORDS, LAST, LEFT_LEAF, OFFSET_MASK, RIGHT_LEAF};
+use super::{children_of, BinaryBvh, NodeRef, INNER_WORDS, LAST};
 
 /// An inner node on one cache line: its children's boxes in the words'
 /// per-axis order (`[lo_left, lo_right, hi_left, hi_right]` for x, y, z, as
@@ -80,15 +80,7 @@ impl Lines {
             ..LineNode::default()
         });
         self.node_ids.push(id);
-        let link = w[12];
-        let l = link & OFFSET_MASK;
-        let left = l | if link & LEFT_LEAF != 0 { LAST } else { 0 };
-        let size = if link & LEFT_LEAF != 0 {
-            1
-        } else {
-            INNER_WORDS as u32
-        };
-        let right = (l + size) | if link & RIGHT_LEAF != 0 { LAST } else { 0 };
+        let [left, right] = children_of(w[12]);
         let child = [self.place(b, left), self.place(b, right)];
         self.nodes[k].child = child;
         k as u32

@@ -52,6 +52,17 @@ const OFFSET_MASK: u32 = (1 << 30) - 1;
 /// for a leaf.
 pub type NodeRef = u32;
 
+/// The references of an inner node's two children, from its link word:
+/// the left child at the link's offset, the right one after it (1 word on
+/// from a leaf, 13 from an inner node), each with [`LAST`] set for a leaf.
+fn children_of(link: u32) -> [NodeRef; 2] {
+    let l = link & OFFSET_MASK;
+    let flag = |leaf: bool| if leaf { LAST } else { 0 };
+    let left_leaf = link & LEFT_LEAF != 0;
+    let right = l + if left_leaf { 1 } else { INNER_WORDS as u32 };
+    [l | flag(left_leaf), right | flag(link & RIGHT_LEAF != 0)]
+}
+
 /// The uncompressed binary BVH (52-byte inner nodes, 4-byte leaves; see the
 /// module docs), traversed by STACK.
 #[derive(Clone, Debug)]
@@ -319,13 +330,7 @@ mod tests {
                     assert_eq!(prims, bvh.leaf_prims(node));
                 }
                 NodeKind::Inner { left, right, .. } => {
-                    let link = b.words[at + 12];
-                    let l = link & OFFSET_MASK;
-                    let lsize = if link & LEFT_LEAF != 0 { 1 } else { 13 };
-                    let kids = [
-                        l | if link & LEFT_LEAF != 0 { LAST } else { 0 },
-                        (l + lsize) | if link & RIGHT_LEAF != 0 { LAST } else { 0 },
-                    ];
+                    let kids = children_of(b.words[at + 12]);
                     let bits: [f32; 12] = std::array::from_fn(|j| f32::from_bits(b.words[at + j]));
                     let boxes = unpair_boxes(&bits);
                     for (k, (c, kr)) in [left, right].into_iter().zip(kids).enumerate() {

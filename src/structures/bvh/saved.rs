@@ -7,7 +7,7 @@
 //! ends inside the list and names real triangles, and the tree is shallow
 //! enough for the traversal's stack.
 
-use super::{BinaryBvh, INNER_WORDS, LEFT_LEAF, OFFSET_MASK, RIGHT_LEAF};
+use super::{children_of, BinaryBvh, INNER_WORDS, OFFSET_MASK};
 use crate::geometry::{Aabb, Triangle};
 use crate::saved::{leaf_run, Bits, RecordWriter, Sections, Source};
 use crate::structures::shared::leaf::LAST;
@@ -84,11 +84,9 @@ impl BinaryBvh {
                     "{what}: the node at word {at} has its children at {l}, not after it"
                 ));
             }
-            let left_leaf = link & LEFT_LEAF != 0;
-            let right = l + if left_leaf { 1 } else { INNER_WORDS as u32 };
-            let flag = |leaf: bool| if leaf { LAST } else { 0 };
-            todo.push((right | flag(link & RIGHT_LEAF != 0), d + 1));
-            todo.push((l | flag(left_leaf), d + 1));
+            let [left, right] = children_of(link);
+            todo.push((right, d + 1));
+            todo.push((left, d + 1));
         }
         let tiled = (inner * INNER_WORDS + leaves) == words.len();
         if !tiled {
