@@ -1,8 +1,6 @@
 //! The WGSL kernels: the shared prelude and one file per traversal.
 
-use raytree::geometry::{
-    ILL_CONDITIONED, ROBUST_WIDENING, TINY_DETERMINANT, TINY_SCALE, WIDENING_STEP,
-};
+use raytree::geometry::{ILL_CONDITIONED, TINY_DETERMINANT, TINY_SCALE, WIDENING_STEP};
 use raytree::structures::shared::interval::SLACK;
 use raytree::structures::shared::leaf::TIE_MARGIN;
 
@@ -87,7 +85,6 @@ impl Kernel {
             ("ILL_CONDITIONED", ILL_CONDITIONED),
             ("TINY_SCALE", TINY_SCALE),
             ("TINY_DETERMINANT", TINY_DETERMINANT),
-            ("ROBUST_WIDENING", ROBUST_WIDENING),
             ("TIE_MARGIN", TIE_MARGIN),
             ("WIDENING_STEP", WIDENING_STEP),
             ("SLACK", SLACK),
@@ -129,6 +126,7 @@ fn hex_f32(v: f32) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use raytree::geometry::ROBUST_WIDENING;
 
     #[test]
     fn hex_literals_are_exact() {

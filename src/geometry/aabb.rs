@@ -129,6 +129,7 @@ const _: () = assert!(WIDENING_STEP - 0.5 * f32::EPSILON * (1.0 + WIDENING_STEP)
 /// are. A product with a factor picked by the sign of `t`: no branch, and
 /// unlike `t + |t|·2γ₃` it keeps `-inf` (which that makes NaN).
 #[inline(always)]
+#[cfg(test)]
 pub fn widen_up(t: f32) -> f32 {
     t * (1.0 + WIDENING_STEP.copysign(t))
 }
@@ -136,6 +137,7 @@ pub fn widen_up(t: f32) -> f32 {
 /// `t` moved down by more than `2γ₃` of itself; ±inf and NaN stay as they
 /// are.
 #[inline(always)]
+#[cfg(test)]
 pub fn widen_down(t: f32) -> f32 {
     t * (1.0 - WIDENING_STEP.copysign(t))
 }
@@ -151,8 +153,35 @@ pub struct BoxRay {
     /// Whether the reciprocal direction is negative on each axis (the max
     /// plane is then the near one). `1/-0 = -inf` counts as negative.
     pub neg: [bool; 3],
+    /// Per axis, the reciprocal that scales the distance to the min plane
+    /// and to the max plane: [`slab_reciprocals`]'s near or far factor,
+    /// whichever role the plane plays for this ray.
+    inv_lo: [f32; 3],
+    inv_hi: [f32; 3],
     org4: [Vec4; 3],
+    /// Per axis, `[inv_lo, inv_lo, inv_hi, inv_hi]`: the lanes of
+    /// [`Self::test_pair`]'s `[lo_0, lo_1, hi_0, hi_1]`.
     inv4: [Vec4; 3],
+}
+
+/// A ray's reciprocal direction `inv` on one axis scaled for the slab
+/// test's near plane and for its far plane (returned in that order), so that the rounded plane distances need no widening at each
+/// box (Ize 2013 widens each exit distance by `1 + 2γ₃`; here the factor
+/// is folded into the reciprocal once per ray).
+///
+/// A plane distance `fl(fl(p - o) · fl(r · (1 ± s)))`, with `r = fl(1/d)`
+/// and `s` = [`WIDENING_STEP`] (`2⁻²¹`, so `1 ± s` is exact), is the exact
+/// `(p - o)/d` times `(1 ± s)` and four roundings of at most `u = 2⁻²⁴`
+/// each; `(1 + s)(1 - u)⁴ > 1` and `(1 - s)(1 + u)⁴ < 1`, so a far distance
+/// that is not negative comes out at or above the exact one and a near
+/// distance at or below it. Negative distances are moved the other way, but
+/// the test clamps them at `tmin ≥ 0`, where the exact ones lie too: a box
+/// whose exact exit is negative holds no hit in `[tmin, tmax]`. An infinite
+/// reciprocal stays infinite, so a ray parallel to a slab is treated as
+/// before (±inf, or NaN for an origin in the plane, which the test ignores).
+#[inline(always)]
+pub fn slab_reciprocals(inv: f32) -> (f32, f32) {
+    (inv * (1.0 - WIDENING_STEP), inv * (1.0 + WIDENING_STEP))
 }
 
 /// `max(t, acc)` that keeps `acc` when `t` is NaN (an ignored slab).
@@ -179,12 +208,19 @@ impl BoxRay {
     pub fn new(ray: &Ray) -> Self {
         let o = ray.origin().to_array();
         let inv = ray.inv_direction().to_array();
+        let neg = inv.map(f32::is_sign_negative);
+        // The min plane is the near one unless the direction is negative.
+        let scaled = inv.map(slab_reciprocals);
+        let inv_lo = std::array::from_fn(|a| if neg[a] { scaled[a].1 } else { scaled[a].0 });
+        let inv_hi = std::array::from_fn(|a| if neg[a] { scaled[a].0 } else { scaled[a].1 });
         BoxRay {
             org: o,
             inv,
-            neg: inv.map(f32::is_sign_negative),
+            neg,
+            inv_lo,
+            inv_hi,
             org4: o.map(Vec4::splat),
-            inv4: inv.map(Vec4::splat),
+            inv4: std::array::from_fn(|a| Vec4::new(inv_lo[a], inv_lo[a], inv_hi[a], inv_hi[a])),
         }
     }
 
@@ -198,10 +234,11 @@ impl BoxRay {
     /// `tnear` does not depend on `tmax`, which the restart-trail traversal
     /// relies on.
     ///
-    /// The test is conservative (Ize 2013; Woop et al. 2013, §5): the exit
-    /// distance is widened up and the entry distance down by `2γ₃` of
-    /// themselves, the most that the rounding of `(b - o) · inv` can move
-    /// them. Without the exit widening a ray hitting a triangle exactly at a
+    /// The test is conservative (Ize 2013; Woop et al. 2013, §5): the
+    /// reciprocals are scaled once per ray ([`slab_reciprocals`]) so that every far
+    /// plane's distance comes out at or beyond the exact one and every near
+    /// plane's at or before it, whatever the roundings of `(b - o) · inv`.
+    /// Without the exit widening a ray hitting a triangle exactly at a
     /// vertex or edge that lies on its box's boundary can compute `tnear >
     /// tfar` and lose the hit the watertight test found; without the entry
     /// widening a triangle lying in its box's entry face, hit at exactly the
@@ -210,12 +247,6 @@ impl BoxRay {
     #[inline(always)]
     pub fn test(&self, b: &[f32; 6], tmin: f32, tmax: f32) -> f32 {
         let (tn, tf) = self.slabs(b, tmin);
-        // Additive widening, as in `test_pair`: the finiteness selects of
-        // `widen_up`/`widen_down` cost the own-box traversals a quarter of
-        // their time. An infinite end (a ray parallel to a slab, outside it)
-        // becomes NaN here, which fails `tn <= tf`: a miss, as it was.
-        let tf = tf + tf.abs() * ROBUST_WIDENING;
-        let tn = tn - tn.abs() * ROBUST_WIDENING;
         let tf = if tmax < tf { tmax } else { tf };
         if tn <= tf {
             tn
@@ -228,18 +259,18 @@ impl BoxRay {
     #[inline(always)]
     pub fn interval(&self, b: &[f32; 6], tmin: f32, tmax: f32) -> (f32, f32) {
         let (tn, tf) = self.slabs(b, tmin);
-        let tf = widen_up(tf);
-        (widen_down(tn), if tmax < tf { tmax } else { tf })
+        (tn, if tmax < tf { tmax } else { tf })
     }
 
-    /// The unwidened entry (from `tmin`) and exit of the box's slabs.
+    /// The entry (from `tmin`) and exit of the box's slabs, each plane's
+    /// distance scaled by its role ([`slab_reciprocals`]).
     #[inline(always)]
     fn slabs(&self, b: &[f32; 6], tmin: f32) -> (f32, f32) {
         let mut tn = tmin;
         let mut tf = f32::INFINITY;
         for a in 0..3 {
-            let lo = (b[a] - self.org[a]) * self.inv[a];
-            let hi = (b[a + 3] - self.org[a]) * self.inv[a];
+            let lo = (b[a] - self.org[a]) * self.inv_lo[a];
+            let hi = (b[a + 3] - self.org[a]) * self.inv_hi[a];
             let (n, f) = if self.neg[a] { (hi, lo) } else { (lo, hi) };
             tn = if n > tn { n } else { tn };
             tf = if f < tf { f } else { tf };
@@ -278,13 +309,6 @@ impl BoxRay {
             tn = max_keep(t, tn);
             tf = min_keep(t.zwxy(), tf);
         }
-        // As `widen_up`, except that an exit at -inf (a ray parallel to a
-        // slab, beside it) becomes NaN here; NaN fails `tn <= tf` below, a
-        // miss, which is what -inf gives too. Cheaper than guarding.
-        tf += tf.abs() * ROBUST_WIDENING;
-        // The entry widened down likewise (+inf, a miss, becomes NaN: still
-        // a miss).
-        tn -= tn.abs() * ROBUST_WIDENING;
         tf = min_keep(Vec4::splat(tmax), tf);
         let hit = tn.cmple(tf);
         let t = Vec4::select(hit, tn, Vec4::INFINITY);
@@ -300,10 +324,11 @@ mod tests {
         Aabb::new(Vec3::ZERO, Vec3::ONE)
     }
 
-    /// The entry distance of a hit at exactly `t`: widened down by `2γ₃`
-    /// of itself, as the box test does.
+    /// The entry distance of a ray with a unit direction component on the
+    /// entry plane's axis into a plane at exactly `t`: `t` times the near
+    /// reciprocal's factor (exact for the small integers used here).
     fn entered(t: f32) -> Option<f32> {
-        Some(t - t.abs() * ROBUST_WIDENING)
+        Some(t * (1.0 - WIDENING_STEP))
     }
 
     #[test]
@@ -322,7 +347,7 @@ mod tests {
     #[test]
     fn origin_inside_enters_at_tmin() {
         let r = Ray::new(Vec3::splat(0.5), Vec3::new(1.0, -2.0, 0.0), 0.25, 10.0);
-        assert_eq!(unit().intersect(&r, 10.0), entered(0.25));
+        assert_eq!(unit().intersect(&r, 10.0), Some(0.25));
     }
 
     #[test]
@@ -365,6 +390,48 @@ mod tests {
         assert_eq!(widen_up(f32::INFINITY), f32::INFINITY);
         assert_eq!(widen_down(f32::NEG_INFINITY), f32::NEG_INFINITY);
         assert_eq!(widen_up(0.0), 0.0);
+    }
+
+    #[test]
+    fn scaled_reciprocals_put_far_planes_beyond_and_near_planes_before_the_exact_distance() {
+        // Plane distances (p - o) · inv over coordinates and directions of
+        // every magnitude, against the exact quotient in f64 (the f64
+        // difference of two f32 is exact here, and its quotient is within
+        // 2⁻⁵³, far below the 2⁻²¹ margin). Results in the subnormal range
+        // are left out: there the roundings are absolute, not relative.
+        let mut rng = crate::rng::Pcg32::new(5, 9);
+        let value = |rng: &mut crate::rng::Pcg32| {
+            let e = rng.range(-60.0, 60.0);
+            let m = rng.range(1.0, 2.0);
+            let s = if rng.next_f32() < 0.5 { -1.0 } else { 1.0 };
+            s * m * e.exp2()
+        };
+        let mut checked = 0;
+        for _ in 0..400_000 {
+            let (p, o, d) = (value(&mut rng), value(&mut rng), value(&mut rng));
+            let inv = 1.0 / d;
+            let (near, far) = slab_reciprocals(inv);
+            let exact = (f64::from(p) - f64::from(o)) / f64::from(d);
+            let tn = (p - o) * near;
+            let tf = (p - o) * far;
+            if exact < 0.0 || !tn.is_normal() || !tf.is_normal() {
+                continue;
+            }
+            assert!(f64::from(tf) >= exact, "far {p} {o} {d}: {tf} < {exact}");
+            assert!(f64::from(tn) <= exact, "near {p} {o} {d}: {tn} > {exact}");
+            checked += 1;
+        }
+        assert!(checked > 150_000, "{checked}");
+    }
+
+    #[test]
+    fn negative_tmin_is_not_traced() {
+        let r = Ray::new(Vec3::new(-1.0, 0.5, 0.5), Vec3::X, -1.0, 10.0);
+        assert!(!r.is_valid());
+        assert_eq!(unit().intersect(&r, 10.0), None);
+        let why = Ray::invalid_reason(Vec3::ZERO, Vec3::X, -1.0, 1.0).unwrap();
+        assert!(why.contains("negative tmin"), "{why}");
+        assert!(Ray::new(Vec3::ZERO, Vec3::X, -0.0, 1.0).is_valid());
     }
 
     #[test]

@@ -44,7 +44,8 @@ impl Ray {
     ///
     /// A ray that is not [`Self::is_valid`] (a NaN or infinite component, an
     /// origin beyond [`COORDINATE_LIMIT`], a direction outside
-    /// [`DIRECTION_MIN`]..=[`DIRECTION_MAX`], a NaN bound) gets the empty
+    /// [`DIRECTION_MIN`]..=[`DIRECTION_MAX`], a NaN bound, a negative `tmin`: the box tests rely on `tmin ≥ 0`, see
+    /// [`crate::geometry::aabb::slab_reciprocals`]) gets the empty
     /// interval `[+inf, -inf]` and a finite stand-in for its direction's
     /// derived constants: every structure answers it with a miss at its root,
     /// in constant time.
@@ -115,7 +116,7 @@ impl Ray {
             .all()
             & (ax.cmple(limit) & ay.cmple(limit) & az.cmple(limit)).all()
             & ax.max(ay).max(az).cmpge(Vec4::splat(DIRECTION_MIN)).all()
-            & !tmin.is_nan()
+            & (tmin >= 0.0)
             & !tmax.is_nan();
         if !valid {
             return d.map(|d| Self::new(origin, d, tmin, tmax));
@@ -168,7 +169,7 @@ impl Ray {
         o4.abs().cmple(Vec4::splat(COORDINATE_LIMIT)).all()
             & ad.cmple(Vec4::splat(DIRECTION_MAX)).all()
             & (ad.max_element() >= DIRECTION_MIN)
-            & !tmin.is_nan()
+            & (tmin >= 0.0)
             & !tmax.is_nan()
     }
 
@@ -251,6 +252,7 @@ enum Fault {
     ZeroDirection,
     DirectionOutOfRange(f32),
     NanBound,
+    NegativeTmin(f32),
 }
 
 impl Fault {
@@ -266,6 +268,8 @@ impl Fault {
             Some(Fault::DirectionOutOfRange(largest))
         } else if tmin.is_nan() || tmax.is_nan() {
             Some(Fault::NanBound)
+        } else if tmin < 0.0 {
+            Some(Fault::NegativeTmin(tmin))
         } else {
             None
         }
@@ -286,6 +290,10 @@ impl std::fmt::Display for Fault {
                 "a direction whose largest component {largest:e} is outside [2^-100, 2^126]"
             ),
             Fault::NanBound => f.write_str("a NaN tmin or tmax"),
+            Fault::NegativeTmin(t) => write!(
+                f,
+                "a negative tmin ({t:e}): the interval must start at the origin or after it"
+            ),
         }
     }
 }

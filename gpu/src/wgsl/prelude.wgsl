@@ -71,6 +71,10 @@ const DEFER: i32 = 2;
 
 // Per-ray state of the invocation.
 var<private> ray: GpuRay;
+// The reciprocal scaled for the min and for the max plane of each axis
+// (`BoxRay`'s inv_lo and inv_hi: `slab_reciprocals`, no widening per box).
+var<private> inv_lo: vec3f;
+var<private> inv_hi: vec3f;
 var<private> tmax: f32;
 var<private> best_t: f32;
 var<private> best_prim: u32;
@@ -172,16 +176,14 @@ fn box_test(lo: vec3f, hi: vec3f, t0: f32, t1: f32) -> f32 {
     var tn = t0;
     var tf = inf();
     for (var a = 0u; a < 3u; a++) {
-        let l = (lo[a] - ray.o[a]) * ray.inv[a];
-        let h = (hi[a] - ray.o[a]) * ray.inv[a];
+        let l = (lo[a] - ray.o[a]) * inv_lo[a];
+        let h = (hi[a] - ray.o[a]) * inv_hi[a];
         let neg = (bitcast<u32>(ray.inv[a]) & 0x80000000u) != 0u;
         let n = select(l, h, neg);
         let f = select(h, l, neg);
         tn = select(tn, n, n > tn);
         tf = select(tf, f, f < tf);
     }
-    tf = tf + abs(tf) * ROBUST_WIDENING;
-    tn = tn - abs(tn) * ROBUST_WIDENING;
     tf = select(tf, t1, t1 < tf);
     return select(inf(), tn, tn <= tf);
 }
@@ -294,6 +296,13 @@ fn start(id: u32) -> bool {
 // Loads ray `id` and resets the state, counters at zero.
 fn load(id: u32) {
     ray = rays[id];
+    for (var a = 0u; a < 3u; a++) {
+        let near = ray.inv[a] * (1.0 - WIDENING_STEP);
+        let far = ray.inv[a] * (1.0 + WIDENING_STEP);
+        let neg = (bitcast<u32>(ray.inv[a]) & 0x80000000u) != 0u;
+        inv_lo[a] = select(near, far, neg);
+        inv_hi[a] = select(far, near, neg);
+    }
     tmax = ray.tmax;
     best_t = inf();
     best_prim = NONE;
@@ -429,17 +438,15 @@ fn start_interval(id: u32) -> bool {
     var tn = ray.tmin;
     var tf = inf();
     for (var a = 0u; a < 3u; a++) {
-        let l = (params.lo[a] - ray.o[a]) * ray.inv[a];
-        let h = (params.hi[a] - ray.o[a]) * ray.inv[a];
+        let l = (params.lo[a] - ray.o[a]) * inv_lo[a];
+        let h = (params.hi[a] - ray.o[a]) * inv_hi[a];
         let neg = (bitcast<u32>(ray.inv[a]) & 0x80000000u) != 0u;
         let n = select(l, h, neg);
         let f = select(h, l, neg);
         tn = select(tn, n, n > tn);
         tf = select(tf, f, f < tf);
     }
-    let up = tf * (1.0 + bitcast<f32>(bitcast<u32>(WIDENING_STEP) | (bitcast<u32>(tf) & 0x80000000u)));
-    let down = tn * (1.0 - bitcast<f32>(bitcast<u32>(WIDENING_STEP) | (bitcast<u32>(tn) & 0x80000000u)));
-    enter_t0 = down;
-    enter_t1 = select(up, ray.tmax, ray.tmax < up);
+    enter_t0 = tn;
+    enter_t1 = select(tf, ray.tmax, ray.tmax < tf);
     return !(enter_t0 > enter_t1);
 }

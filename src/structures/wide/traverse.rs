@@ -19,7 +19,7 @@
 //! same on every path.
 
 use super::{WideNode, LEAF};
-use crate::geometry::aabb::ROBUST_WIDENING;
+use crate::geometry::aabb::slab_reciprocals;
 use crate::geometry::{Hit, Ray, Triangle};
 use crate::stats::{Stats, Tally};
 use crate::structures::shared::simd::{self, SimdPath};
@@ -28,11 +28,14 @@ use crate::structures::shared::MAX_STACK_DEPTH;
 use arrayvec::ArrayVec;
 
 /// A ray's constants for the box tests of one trace: origin, reciprocal
-/// direction, and per axis the plane row nearer (`near`) and farther
-/// (`far`) along the ray (rows 0–2 are minima, 3–5 maxima).
+/// direction scaled for the near planes (`inv_near`) and for the far ones
+/// (`inv_far`, [`slab_reciprocals`]: no widening per node), and per axis the plane
+/// row nearer (`near`) and farther (`far`) along the ray (rows 0–2 are
+/// minima, 3–5 maxima).
 pub struct NodeRay {
     pub org: [f32; 3],
-    pub inv: [f32; 3],
+    pub inv_near: [f32; 3],
+    pub inv_far: [f32; 3],
     pub near: [usize; 3],
     pub far: [usize; 3],
     pub tmin: f32,
@@ -149,24 +152,21 @@ impl Isa for Portable {
         let mut tn = [r.tmin; W];
         let mut tf = [f32::INFINITY; W];
         for a in 0..3 {
-            let (o, inv) = (r.org[a], r.inv[a]);
+            let (o, inv_n, inv_f) = (r.org[a], r.inv_near[a], r.inv_far[a]);
             let (lo, hi) = (&planes[r.near[a]], &planes[r.far[a]]);
             for k in 0..W {
                 // A NaN distance (0·inf: origin in the plane, direction along
                 // it) keeps the running bound, as the slab test ignores it.
-                let t = (lo[k] - o) * inv;
+                let t = (lo[k] - o) * inv_n;
                 tn[k] = if t > tn[k] { t } else { tn[k] };
-                let t = (hi[k] - o) * inv;
+                let t = (hi[k] - o) * inv_f;
                 tf[k] = if t < tf[k] { t } else { tf[k] };
             }
         }
         let mut mask = 0;
         for k in 0..W {
-            let f = tf[k] + tf[k].abs() * ROBUST_WIDENING;
-            let n = tn[k] - tn[k].abs() * ROBUST_WIDENING;
-            let f = if tmax < f { tmax } else { f };
-            tn[k] = n;
-            mask |= ((n <= f) as u32) << k;
+            let f = if tmax < tf[k] { tmax } else { tf[k] };
+            mask |= ((tn[k] <= f) as u32) << k;
         }
         (tn, mask)
     }
@@ -184,7 +184,7 @@ mod x86 {
     //! which keep the running bound on a NaN distance as the portable test
     //! does; no multiply-add is fused, so every lane's distance is the
     //! portable test's bit for bit.
-    use super::{Entered, Isa, NodeRay, ROBUST_WIDENING};
+    use super::{Entered, Isa, NodeRay};
     use std::arch::x86_64::*;
 
     /// A node's six plane rows: row `k` starts `k·stride` floats after
@@ -304,7 +304,7 @@ mod x86 {
         let mut tf = _mm_set1_ps(f32::INFINITY);
         for a in 0..3 {
             let o = _mm_set1_ps(r.org[a]);
-            let inv = _mm_set1_ps(r.inv[a]);
+            let (inv_n, inv_f) = (_mm_set1_ps(r.inv_near[a]), _mm_set1_ps(r.inv_far[a]));
             // SAFETY: `p.row(k)` points at four readable floats (a plane
             // row of a node or half of one), as `Rows::of` makes them.
             let (lo, hi) = unsafe {
@@ -313,16 +313,12 @@ mod x86 {
                     _mm_loadu_ps(p.row(r.far[a])),
                 )
             };
-            tn = _mm_max_ps(_mm_mul_ps(_mm_sub_ps(lo, o), inv), tn);
-            tf = _mm_min_ps(_mm_mul_ps(_mm_sub_ps(hi, o), inv), tf);
+            tn = _mm_max_ps(_mm_mul_ps(_mm_sub_ps(lo, o), inv_n), tn);
+            tf = _mm_min_ps(_mm_mul_ps(_mm_sub_ps(hi, o), inv_f), tf);
         }
-        let w = _mm_set1_ps(ROBUST_WIDENING);
-        let sign = _mm_set1_ps(-0.0);
-        let f = _mm_add_ps(tf, _mm_mul_ps(_mm_andnot_ps(sign, tf), w));
-        let n = _mm_sub_ps(tn, _mm_mul_ps(_mm_andnot_ps(sign, tn), w));
-        let f = _mm_min_ps(_mm_set1_ps(tmax), f);
-        let mask = _mm_movemask_ps(_mm_cmple_ps(n, f)) as u32;
-        (n, mask)
+        let f = _mm_min_ps(_mm_set1_ps(tmax), tf);
+        let mask = _mm_movemask_ps(_mm_cmple_ps(tn, f)) as u32;
+        (tn, mask)
     }
 
     #[target_feature(enable = "avx2,fma")]
@@ -332,7 +328,7 @@ mod x86 {
         let mut tf = _mm256_set1_ps(f32::INFINITY);
         for a in 0..3 {
             let o = _mm256_set1_ps(r.org[a]);
-            let inv = _mm256_set1_ps(r.inv[a]);
+            let (inv_n, inv_f) = (_mm256_set1_ps(r.inv_near[a]), _mm256_set1_ps(r.inv_far[a]));
             // SAFETY: `p.row(k)` points at a plane row of eight floats.
             let (lo, hi) = unsafe {
                 (
@@ -340,15 +336,11 @@ mod x86 {
                     _mm256_loadu_ps(p.row(r.far[a])),
                 )
             };
-            tn = _mm256_max_ps(_mm256_mul_ps(_mm256_sub_ps(lo, o), inv), tn);
-            tf = _mm256_min_ps(_mm256_mul_ps(_mm256_sub_ps(hi, o), inv), tf);
+            tn = _mm256_max_ps(_mm256_mul_ps(_mm256_sub_ps(lo, o), inv_n), tn);
+            tf = _mm256_min_ps(_mm256_mul_ps(_mm256_sub_ps(hi, o), inv_f), tf);
         }
-        let w = _mm256_set1_ps(ROBUST_WIDENING);
-        let sign = _mm256_set1_ps(-0.0);
-        let f = _mm256_add_ps(tf, _mm256_mul_ps(_mm256_andnot_ps(sign, tf), w));
-        let n = _mm256_sub_ps(tn, _mm256_mul_ps(_mm256_andnot_ps(sign, tn), w));
-        let f = _mm256_min_ps(_mm256_set1_ps(tmax), f);
-        (n, f)
+        let f = _mm256_min_ps(_mm256_set1_ps(tmax), tf);
+        (tn, f)
     }
 
     #[target_feature(enable = "avx2,fma")]
@@ -655,9 +647,11 @@ fn trace_kernel<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool, I: Is
     let mut tally = Tally::default();
     let inv = ray.inv_direction().to_array();
     let neg = inv.map(f32::is_sign_negative);
+    let scaled = inv.map(slab_reciprocals);
     let r = NodeRay {
         org: ray.origin().to_array(),
-        inv,
+        inv_near: scaled.map(|s| s.0),
+        inv_far: scaled.map(|s| s.1),
         near: std::array::from_fn(|a| a + 3 * neg[a] as usize),
         far: std::array::from_fn(|a| a + 3 * !neg[a] as usize),
         tmin: ray.tmin,
