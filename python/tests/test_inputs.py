@@ -170,6 +170,9 @@ def test_ray_errors(accel, rays):
         accel.cast_rays(far)
     with pytest.raises(ValueError, match="a NaN tmin or tmax"):
         accel.cast_rays(rays, tmin=np.nan)
+    with pytest.raises(ValueError, match=r"rays\[0\] cannot be traced: a negative tmin"):
+        accel.cast_rays(rays, tmin=-1.0)
+    assert np.isinf(accel.cast_rays(rays, tmin=-1.0, invalid_rays="miss")["t_hit"]).all()
     with pytest.raises(ValueError, match="invalid_rays must be 'raise' or 'miss'"):
         accel.cast_rays(rays, invalid_rays="ignore")
     with pytest.raises(ValueError, match=r"tmax of shape \(7,\) does not broadcast to the rays' leading shape \(600,\)"):
