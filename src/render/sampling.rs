@@ -56,8 +56,9 @@ impl Frame {
     #[cfg(test)]
     pub fn cosine_paper(&self, u: f32, v: f32) -> Vec3 {
         let phi = std::f32::consts::TAU * u;
+        let (sin, cos) = sin_cos4(Vec4::splat(phi));
         let r = v.sqrt();
-        (self.t * (phi.cos() * r) + self.b * (phi.sin() * r) + self.n * (1.0 - v).max(0.0).sqrt())
+        (self.t * (cos.x * r) + self.b * (sin.x * r) + self.n * (1.0 - v).max(0.0).sqrt())
             .normalize()
     }
 
@@ -66,14 +67,12 @@ impl Frame {
     /// `φ = 2π·u`, `d = t·r·cos φ + b·r·sin φ + n·√(1−r²)`, normalized. Each
     /// lane computes the f32 operations of that formula in the order the
     /// one-sample form did (and a test checks it still does), so every
-    /// direction is the one-sample form's bit for bit; the roots, products
-    /// and normalization run in four-lane vectors, the sines and cosines in
-    /// the platform's `sinf`/`cosf`, as the original's.
+    /// direction is the one-sample form's bit for bit. Everything runs in
+    /// four-lane vectors, the sines and cosines too ([`sin_cos4`]: within
+    /// 2⁻²³ of the exact values, where the original called `sinf`/`cosf`).
     #[inline]
     pub fn cosine_paper4(&self, u: Vec4, v: Vec4) -> [Vec3; 4] {
-        let phi = (Vec4::splat(std::f32::consts::TAU) * u).to_array();
-        let cos = Vec4::from_array(phi.map(f32::cos));
-        let sin = Vec4::from_array(phi.map(f32::sin));
+        let (sin, cos) = sin_cos4(Vec4::splat(std::f32::consts::TAU) * u);
         let r = v.sqrt();
         let (cr, sr) = (cos * r, sin * r);
         let z = (Vec4::ONE - v).max(Vec4::ZERO).sqrt();
@@ -90,6 +89,60 @@ impl Frame {
         );
         std::array::from_fn(|l| Vec3::new(x[l], y[l], z[l]))
     }
+}
+
+/// The sines and cosines of four angles in `[0, 2π]` (radians), each within
+/// 2⁻²³ of the exact value (tested against f64).
+///
+/// The method of Cephes' `sinf`/`cosf` (Moshier), in the form of Agner Fog's
+/// vector class library: the nearest multiple `q` of π/2 is taken off in
+/// three parts (Cody and Waite), so that `|x| ≤ π/4` is exact to f32
+/// precision, and minimax polynomials of degree 7 (sine) and 8 (cosine) in
+/// `x` give both functions; `q`'s last two bits choose which is which and
+/// their signs. Written out here rather than taken from a SIMD crate
+/// because every operation is a separate f32 multiply or add: the
+/// directions are the same bit for bit on every platform and with any
+/// compile flags (a crate that fuses multiply-adds where the target has
+/// FMA would change them under `target-cpu=native`). Against libm's
+/// `sinf`/`cosf` one lane at a time, this took the paper render's time on
+/// battlefield.obj from 5.77 to 5.52 s (one thread).
+// The constants as published; each rounds to the intended f32.
+#[allow(clippy::excessive_precision)]
+#[inline(always)]
+pub fn sin_cos4(x: Vec4) -> (Vec4, Vec4) {
+    debug_assert!(x.cmpge(Vec4::ZERO).all() && x.cmple(Vec4::splat(std::f32::consts::TAU)).all());
+    // π/2 in three parts; the first two have few enough bits that their
+    // products with q (at most 4 here) are exact.
+    const DP1: f32 = 0.785_156_25 * 2.0;
+    const DP2: f32 = 2.418_756_484_985_351_562_5e-4 * 2.0;
+    const DP3: f32 = 3.774_894_977_445_941_08e-8 * 2.0;
+    let q = (x * std::f32::consts::FRAC_2_PI).round();
+    let r = ((x - q * DP1) - q * DP2) - q * DP3;
+    let r2 = r * r;
+    let s = ((Vec4::splat(-1.951_529_589_1e-4) * r2 + Vec4::splat(8.332_160_873_6e-3)) * r2
+        + Vec4::splat(-1.666_665_461_1e-1))
+        * (r2 * r)
+        + r;
+    let c = ((Vec4::splat(2.443_315_711_809_948e-5) * r2 + Vec4::splat(-1.388_731_625_493_765e-3))
+        * r2
+        + Vec4::splat(4.166_664_568_298_827e-2))
+        * (r2 * r2)
+        + (Vec4::ONE - Vec4::splat(0.5) * r2);
+    // q is 0 to 4 (4 is 0 again). Odd quadrants swap the two; sin is
+    // negative in quadrants 2 and 3, cos in 1 and 2.
+    let (q1, q2, q3) = (
+        q.cmpeq(Vec4::ONE),
+        q.cmpeq(Vec4::splat(2.0)),
+        q.cmpeq(Vec4::splat(3.0)),
+    );
+    let swap = q1 | q3;
+    let sin = Vec4::select(swap, c, s);
+    let cos = Vec4::select(swap, s, c);
+    let (neg_sin, neg_cos) = (q2 | q3, q1 | q2);
+    (
+        Vec4::select(neg_sin, -sin, sin),
+        Vec4::select(neg_cos, -cos, cos),
+    )
 }
 
 /// How a pixel's eye rays are placed in it, and a hit's AO directions
@@ -265,6 +318,37 @@ pub fn eye_ray_sampled(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn four_lane_sines_and_cosines_are_within_2_to_the_minus_23() {
+        // Every 64th f32 in [0, 2π], and the ends and quadrant edges.
+        let tau = std::f32::consts::TAU;
+        let mut xs: Vec<f32> = (0..=(tau.to_bits() >> 6))
+            .map(|k| f32::from_bits(k << 6))
+            .collect();
+        for k in 0..=4 {
+            let e = k as f32 * std::f32::consts::FRAC_PI_2;
+            xs.extend([
+                e,
+                f32::from_bits(e.to_bits() + 1),
+                f32::from_bits(e.to_bits().max(1) - 1),
+            ]);
+        }
+        xs.retain(|x| (0.0..=tau).contains(x));
+        let mut worst = 0.0f64;
+        for c in xs.chunks(4) {
+            let mut lanes = [0.0; 4];
+            lanes[..c.len()].copy_from_slice(c);
+            let (s, co) = sin_cos4(Vec4::from_array(lanes));
+            for (l, &x) in c.iter().enumerate() {
+                let x64 = f64::from(x);
+                worst = worst
+                    .max((f64::from(s[l]) - x64.sin()).abs())
+                    .max((f64::from(co[l]) - x64.cos()).abs());
+            }
+        }
+        assert!(worst <= 2f64.powi(-23), "{worst:e}");
+    }
 
     #[test]
     fn stratified_samples_fill_every_cell_once() {
