@@ -97,7 +97,8 @@ impl Ray {
     /// Four rays from one `origin`, each [`Self::new`]`(origin, d[l], tmin,
     /// tmax)` bit for bit, with their constants computed in four-lane
     /// vectors across the rays (three divisions for the reciprocals and
-    /// three for the shears of all four, rather than two per ray). Rays
+    /// two for the shears of all four; the third shear constant, `1/dz`, is
+    /// the reciprocal on axis `kz`). Rays
     /// whose parts are not all valid are made one at a time by `new`.
     #[inline]
     pub fn new4(origin: Vec3, d: [Vec3; 4], tmin: f32, tmax: f32) -> [Self; 4] {
@@ -121,11 +122,14 @@ impl Ray {
         if !valid {
             return d.map(|d| Self::new(origin, d, tmin, tmax));
         }
-        let inv = [Vec4::ONE / x, Vec4::ONE / y, Vec4::ONE / z].map(|v| v.to_array());
+        let inv4 = [Vec4::ONE / x, Vec4::ONE / y, Vec4::ONE / z];
+        let inv = inv4.map(|v| v.to_array());
         // kz: the first axis of the largest magnitude, as in `new`.
         let kz0 = ax.cmpge(ay) & ax.cmpge(az);
         let kz1 = ay.cmpge(az);
         let dz = Vec4::select(kz0, x, Vec4::select(kz1, y, z));
+        // 1/dz is the reciprocal on axis kz, already divided.
+        let inv_dz = Vec4::select(kz0, inv4[0], Vec4::select(kz1, inv4[1], inv4[2]));
         let (kz0, kz1) = (kz0.bitmask(), kz1.bitmask());
         let neg = dz.cmplt(Vec4::ZERO).bitmask();
         let k: [[usize; 3]; 4] = std::array::from_fn(|l| {
@@ -145,7 +149,7 @@ impl Ray {
         });
         let lanes = [x.to_array(), y.to_array(), z.to_array()];
         let pick = |j: usize| Vec4::from_array(std::array::from_fn(|l| lanes[k[l][j]][l]));
-        let shear = [pick(0) / dz, pick(1) / dz, Vec4::ONE / dz].map(|v| v.to_array());
+        let shear = [pick(0) / dz, pick(1) / dz, inv_dz].map(|v| v.to_array());
         std::array::from_fn(|l| Ray {
             origin,
             direction: Vec3::new(lanes[0][l], lanes[1][l], lanes[2][l]),
