@@ -60,7 +60,8 @@ impl GeometryHit {
 
 /// Decodes a ray file's bytes; `path` names it in errors. A size that is not
 /// a multiple of 32, or a ray that cannot be traced (non-finite origin or
-/// direction, zero direction, NaN interval) is an error naming the ray.
+/// direction, zero direction, NaN interval, negative `tmin`; see
+/// [`Ray::invalid_reason`]) is an error naming the ray.
 pub fn parse_rays(bytes: &[u8], path: &Path) -> Result<Vec<Ray>> {
     let err = |message: String| Error::Parse {
         path: path.into(),

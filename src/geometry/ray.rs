@@ -229,8 +229,9 @@ impl Ray {
     /// Whether the ray can be traced: every origin coordinate within
     /// ±[`COORDINATE_LIMIT`], a finite direction whose largest component
     /// magnitude lies in [`DIRECTION_MIN`]..=[`DIRECTION_MAX`], and an
-    /// interval that is not NaN. Rays that are not valid are answered with a
-    /// miss (see [`Self::new`]).
+    /// interval that is not NaN and starts at `tmin ≥ 0`. Rays that are not
+    /// valid are answered with a miss (see [`Self::new`]; a `tmin` made
+    /// negative after `new` misses at every structure's root).
     pub fn is_valid(&self) -> bool {
         // [+inf, -inf] is the mark `new` leaves on a ray that is not valid.
         Self::valid_parts(self.origin, self.direction, self.tmin, self.tmax)

@@ -403,15 +403,38 @@ fn every_structure_agrees_with_the_oracle_at_every_magnitude() {
     }
 }
 
-/// Rays that are not valid (NaN, infinite, zero or out-of-range parts)
-/// are answered with a miss by every structure after visiting at most the
-/// root.
+/// Rays that are not valid (NaN, infinite, zero or out-of-range parts, a
+/// negative `tmin`, also one set after `Ray::new`) are answered with a miss
+/// by every structure after visiting at most the root, on a scene and on a
+/// one-triangle tree whose root is a leaf (the wide layouts then test no
+/// box before the triangle).
 #[test]
 fn invalid_rays_are_misses_in_constant_time() {
     let scene = Scene::from_spec("chess:2000").unwrap();
-    let tris = scene.triangles.clone();
+    let one: Arc<[Triangle]> = Arc::from(vec![Triangle::new(
+        Vec3::new(-1.0, 0.0, 0.0),
+        Vec3::new(-1.0, 1.0, 0.0),
+        Vec3::new(-1.0, 0.0, 1.0),
+    )]);
+    // Nodes and triangles tested by both queries together: at most the
+    // root, or on the one-triangle tree the root leaf and its triangle
+    // (the wide layouts test no box before a root leaf).
+    for (tris, c, most) in [
+        (scene.triangles.clone(), scene.mesh.bounds().center(), 2),
+        (one, Vec3::new(0.0, 0.25, 0.25), 4),
+    ] {
+        check_invalid_rays(tris, c, most);
+    }
+}
+
+fn check_invalid_rays(tris: Arc<[Triangle]>, c: Vec3, most: u64) {
     let bvh = Bvh::build(&tris, &BuildOptions::new(Builder::Sah));
-    let c = scene.mesh.bounds().center();
+    let made_negative = |tmin: f32| {
+        // The triangle lies behind the origin: a negative tmin would reach it.
+        let mut r = Ray::infinite(c, Vec3::X);
+        r.tmin = tmin;
+        r
+    };
     let bad = [
         Ray::infinite(Vec3::NAN, Vec3::X),
         Ray::infinite(c, Vec3::new(f32::NAN, 1.0, 0.0)),
@@ -420,6 +443,9 @@ fn invalid_rays_are_misses_in_constant_time() {
         Ray::infinite(c, Vec3::splat(1e-31)),
         Ray::infinite(Vec3::new(1e38, c.y, c.z), -Vec3::X),
         Ray::new(c, Vec3::X, f32::NAN, 1.0),
+        Ray::new(c, -Vec3::X, -1.0, 10.0),
+        made_negative(-2.0),
+        made_negative(f32::NAN),
     ];
     for (s, t) in common::configurations() {
         let (built, _) = Built::new(s, t, &bvh, tris.clone()).unwrap();
@@ -434,7 +460,7 @@ fn invalid_rays_are_misses_in_constant_time() {
                 t.name()
             );
             assert!(
-                nodes <= 2,
+                nodes <= most,
                 "{}/{}: {nodes} nodes for {ray:?}",
                 s.name(),
                 t.name()

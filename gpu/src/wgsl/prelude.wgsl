@@ -290,7 +290,8 @@ fn start(id: u32) -> bool {
         return false;
     }
     n_planes = 6u;
-    return box_test(params.lo.xyz, params.hi.xyz, ray.tmin, ray.tmax) != inf();
+    // A negative or NaN tmin misses, as shared/leaf.rs's enter.
+    return ray.tmin >= 0.0 && box_test(params.lo.xyz, params.hi.xyz, ray.tmin, ray.tmax) != inf();
 }
 
 // Loads ray `id` and resets the state, counters at zero.
@@ -426,13 +427,17 @@ fn u64_nonzero(x: vec2u) -> bool {
 }
 
 // The interval traversals' entry (shared/leaf.rs, enter_interval): the
-// scene box's slabs widened by BoxRay::interval's steps; true if the
-// interval [enter_t0, enter_t1] is not empty (6 plane tests either way).
+// scene box's slabs with the ray's scaled reciprocals, as BoxRay::interval;
+// true if the interval [enter_t0, enter_t1] is not empty and tmin is not
+// negative or NaN (6 plane tests either way).
 var<private> enter_t0: f32;
 var<private> enter_t1: f32;
 
 fn start_interval(id: u32) -> bool {
     if !start(id) && params.empty != 0u {
+        return false;
+    }
+    if !(ray.tmin >= 0.0) {
         return false;
     }
     var tn = ray.tmin;

@@ -21,7 +21,8 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
         return;
     }
     load(id);
-    if params.empty == 0u {
+    // A negative or NaN tmin misses, as the CPU kernel (wide/traverse.rs).
+    if params.empty == 0u && ray.tmin >= 0.0 {
         var sp = 0u;
         var node = params.root;
         loop {

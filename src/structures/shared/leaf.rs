@@ -102,6 +102,11 @@ pub fn take_hit<const ANY: bool, S: Stats>(
 /// The root box test every BVH traversal begins with (6 plane tests): the
 /// ray's box constants and its tally, or `None` when the ray misses the
 /// scene box (the tally then already handed to `stats`).
+///
+/// A ray whose `tmin` is negative or NaN misses too: [`Ray::new`] refuses
+/// such a ray, but `tmin` is a public field a caller can change afterwards,
+/// and the box tests are conservative only from `tmin ≥ 0`
+/// ([`crate::geometry::aabb::slab_reciprocals`]).
 #[inline(always)]
 pub fn enter<S: Stats>(ray: &Ray, root: &[f32; 6], stats: &mut S) -> Option<(BoxRay, Tally)> {
     let br = BoxRay::new(ray);
@@ -109,7 +114,7 @@ pub fn enter<S: Stats>(ray: &Ray, root: &[f32; 6], stats: &mut S) -> Option<(Box
         planes: 6,
         ..Tally::default()
     };
-    if br.test(root, ray.tmin, ray.tmax) == f32::INFINITY {
+    if (ray.tmin.is_nan() || ray.tmin < 0.0) || br.test(root, ray.tmin, ray.tmax) == f32::INFINITY {
         stats.add(tally);
         return None;
     }
@@ -119,7 +124,8 @@ pub fn enter<S: Stats>(ray: &Ray, root: &[f32; 6], stats: &mut S) -> Option<(Box
 /// The root box test of the interval traversals (dual-split tree, BIH,
 /// H-tree): the ray's plane constants for trees inside `root`, its tally and
 /// its interval `[tn, tf]` inside the scene box, or `None` when it misses
-/// (the tally then handed to `stats`).
+/// (the tally then handed to `stats`); as [`enter`], a negative or NaN
+/// `tmin` misses.
 #[inline(always)]
 pub fn enter_interval<S: Stats>(
     ray: &Ray,
@@ -132,7 +138,7 @@ pub fn enter_interval<S: Stats>(
         ..Tally::default()
     };
     let (tn, tf) = br.interval(&root.to_array(), ray.tmin, ray.tmax);
-    if tn > tf {
+    if (ray.tmin.is_nan() || ray.tmin < 0.0) || tn > tf {
         stats.add(tally);
         return None;
     }

@@ -639,7 +639,10 @@ fn trace_kernel<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool, I: Is
     stats: &mut S,
 ) -> Option<Hit> {
     debug_assert!((w.depth() as usize) * (W - 1) < STACK);
-    if w.is_empty() {
+    // A negative or NaN `tmin` (set after `Ray::new`, which refuses it)
+    // misses, as at the other structures' root test: the box tests are
+    // conservative only from `tmin ≥ 0`.
+    if w.is_empty() || (ray.tmin.is_nan() || ray.tmin < 0.0) {
         return None;
     }
     // No separate test of the scene box: the root's children's boxes are
