@@ -22,18 +22,6 @@ fn neg(a: u32) -> bool {
     return (bitcast<u32>(ray.inv[a]) & 0x80000000u) != 0u;
 }
 
-fn copysign(m: f32, s: f32) -> f32 {
-    return bitcast<f32>((bitcast<u32>(m) & 0x7fffffffu) | (bitcast<u32>(s) & 0x80000000u));
-}
-
-fn widen_up(t: f32) -> f32 {
-    return t * (1.0 + copysign(WIDENING_STEP, t));
-}
-
-fn widen_down(t: f32) -> f32 {
-    return t * (1.0 - copysign(WIDENING_STEP, t));
-}
-
 fn raise(acc: f32, t: f32) -> f32 {
     return select(acc, t, t > acc);
 }
@@ -91,7 +79,7 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
     if id >= params.count {
         return;
     }
-    // enter_interval: the scene box's interval, widened (BoxRay::interval).
+    // enter_interval: the scene box's interval (BoxRay::interval).
     if start_interval(id) {
         plane_ray();
         var stack_n: array<u32, STACK_SIZE>;
