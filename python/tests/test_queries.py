@@ -3,6 +3,9 @@
 
 from __future__ import annotations
 
+import functools
+import itertools
+
 import numpy as np
 import pytest
 
@@ -261,3 +264,39 @@ def test_info(chess):
     assert "implicit" == raytree.Accelerator(chess, "bvh/implicit-a").info()["layout"]
     assert repr(raytree.Accelerator(chess, "bvh/hapala")).startswith('Accelerator("bvh/hapala"')
     assert raytree.Accelerator(chess).scene is not None
+
+
+def test_large_batches_answer_as_small_ones(chess):
+    # From the core's `structures::order::MIN_RAYS` (16384) rays on, a query
+    # traces its rays in a coherent order and puts each answer back in its
+    # ray's slot: the answers, counters included, equal those of the same
+    # rays asked for in batches too small to be reordered.
+    rays = make_rays(chess, 40_000, seed=4)
+    pieces = np.array_split(rays, 10)
+    brute = oracle(chess).cast_rays(rays)
+    for name in ("bvh", "bvh/sparse", "bvh8", "dst"):
+        accel = raytree.Accelerator(chess, name)
+        for threads in (1, 2):
+            for query, counters in itertools.product(
+                ("cast_rays", "test_occlusions", "count_intersections"), (False, True)
+            ):
+                ask = functools.partial(getattr(accel, query), threads=threads, counters=counters)
+                whole, parts = ask(rays), [ask(p) for p in pieces]
+                if not isinstance(whole, dict):
+                    whole, parts = {"value": whole}, [{"value": p} for p in parts]
+                for key in whole:
+                    joined = np.concatenate([p[key] for p in parts])
+                    np.testing.assert_array_equal(whole[key], joined, err_msg=f"{name} {query} {counters} {key}")
+            assert_same_closest(accel.cast_rays(rays, threads=threads), brute, name)
+    # The smallest index of a ray that cannot be traced is named, whatever
+    # the order the rays were traced in.
+    bad = rays.copy()
+    bad[[31_000, 20_123, 39_999], 3:] = 0
+    accel = raytree.Accelerator(chess, "bvh8")
+    with pytest.raises(ValueError, match=r"rays\[20123\] cannot be traced: a zero direction"):
+        accel.cast_rays(bad)
+    missed = accel.cast_rays(bad, invalid_rays="miss")
+    keep = np.ones(len(rays), bool)
+    keep[[31_000, 20_123, 39_999]] = False
+    assert (missed["primitive_ids"][~keep] == raytree.INVALID_ID).all()
+    np.testing.assert_array_equal(missed["t_hit"][keep], brute["t_hit"][keep])
