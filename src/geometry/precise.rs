@@ -158,8 +158,14 @@ pub(super) fn intersect(
     if den == 0.0 || !den.is_finite() {
         return None;
     }
-    let t = (dot(&n, &diff(a, o)).value() / den) as f32;
-    if !t.is_finite() || t < tmin || t > tmax {
+    // The interval is checked before rounding to f32: a plane a hair behind
+    // the origin has a t that rounds to -0.0, which is not below tmin = 0.
+    let t = dot(&n, &diff(a, o)).value() / den;
+    if !(t >= tmin as f64 && t <= tmax as f64) {
+        return None;
+    }
+    let t = t as f32;
+    if !t.is_finite() {
         return None;
     }
     let u = (eb / sum) as f32;

@@ -159,9 +159,17 @@ impl Triangle {
         let cz = s.z * c[kz];
         let t_scaled = u * az + v * bz + w * cz;
         // An edge function, the determinant or T overflowed f32 (inf or
-        // NaN), or the determinant is so small that 1/det loses precision
-        // or overflows: the precise path, where they cannot.
-        if !(det.abs() >= TINY_DETERMINANT && det.is_finite() && t_scaled.is_finite()) {
+        // NaN), the determinant is so small that 1/det loses precision or
+        // overflows, or T is zero or subnormal (its products may have
+        // underflowed, and with them the sign that says whether the plane
+        // is before or behind the origin): the precise path, where they
+        // cannot. (The test's own arithmetic makes T zero where the origin
+        // lies in the triangle's plane.)
+        if !(det.abs() >= TINY_DETERMINANT
+            && det.is_finite()
+            && t_scaled.abs() >= f32::MIN_POSITIVE
+            && t_scaled.is_finite())
+        {
             return self.intersect_precise(ray, tmin, tmax);
         }
         // Flip T by det's sign so that the comparisons need no division.

@@ -403,6 +403,47 @@ fn every_structure_agrees_with_the_oracle_at_every_magnitude() {
     }
 }
 
+/// A plane just behind the origin, met at a distance so small against a
+/// long direction that the f32 products of `T = t·det` underflow to zero
+/// (the sign that says "behind" lost): a miss, for the scalar test, the
+/// four-lane leaf blocks and every structure; and a triangle as far in
+/// front is still hit there, at a `t` of positive sign.
+#[test]
+fn planes_behind_the_origin_are_missed_where_t_underflows() {
+    let p2 = |e: i32| 2f32.powi(e);
+    for e in [28, 30] {
+        // Relative to the origin: a = (x, 0, 0), b = (x, s, 0), c = (x, 0, s),
+        // with x = -s behind the origin and x = +s in front of it.
+        let s = p2(-e);
+        let o = Vec3::new(s, 0.0, 2.0 * s);
+        let at = |x: f32| {
+            Triangle::new(
+                o + Vec3::new(x, 0.0, 0.0),
+                o + Vec3::new(x, s, 0.0),
+                o + Vec3::new(x, 0.0, s),
+            )
+        };
+        let (behind, front) = (at(-s), at(s));
+        for k in [64, 80, 100, 120] {
+            let ray = Ray::infinite(o + Vec3::new(0.0, 0.25 * s, 0.25 * s), Vec3::X * p2(k));
+            assert_eq!(exact_hit(&behind, &ray), Some(None), "2^-{e}, 2^{k}");
+            assert_eq!(behind.intersect(&ray, ray.tmin, ray.tmax), None, "2^-{e}, 2^{k}");
+            let (t, _, _) = front.intersect(&ray, ray.tmin, ray.tmax).expect("in front");
+            // (Where the exact t is below half the least subnormal, +0.)
+            assert!(t >= 0.0 && t.is_sign_positive(), "2^-{e}, 2^{k}: t = {t:e}");
+            for tris in [vec![behind], vec![behind, front, behind, at(-2.0 * s)]] {
+                let tris: Arc<[Triangle]> = tris.into();
+                let oracle = BruteForce::new(tris.clone());
+                let want = oracle.closest_hit(&ray, &mut NoStats);
+                assert_eq!(want.is_some(), tris.len() > 1, "2^-{e}, 2^{k}: {want:?}");
+                let bvh = Bvh::build(&tris, &BuildOptions::new(Builder::Sah));
+                common::every_configuration_agrees(&bvh, &tris, &oracle, &[ray])
+                    .unwrap_or_else(|err| panic!("2^-{e}, 2^{k}: {err}"));
+            }
+        }
+    }
+}
+
 /// Rays that are not valid (NaN, infinite, zero or out-of-range parts, a
 /// negative `tmin`, also one set after `Ray::new`) are answered with a miss
 /// by every structure after visiting at most the root, on a scene and on a

@@ -284,10 +284,13 @@ pub fn intersect_blocks_with<const ANY: bool, S: Stats>(
         }
         let t_scaled = u * (sz * a_z) + v * (sz * b_z) + w * (sz * c_z);
         let precise = exact.bitmask() | !conditioned.bitmask();
-        // Overflow, or a determinant too small for 1/det: exact paths too.
+        // Overflow, a determinant too small for 1/det, or T zero or
+        // subnormal (its sign may be lost): exact paths too.
+        let t_mag = t_scaled.abs();
         let finite = det_abs.cmpge(Vec4::splat(TINY_DETERMINANT))
             & det_abs.cmplt(Vec4::INFINITY)
-            & t_scaled.abs().cmplt(Vec4::INFINITY);
+            & t_mag.cmpge(Vec4::splat(f32::MIN_POSITIVE))
+            & t_mag.cmplt(Vec4::INFINITY);
         let precise = (precise | (!outside.bitmask() & !finite.bitmask())) & 0xf;
         // T flipped by det's sign, against the interval at the block's start
         // (a lane beyond it is beyond any later, smaller one too).
