@@ -7,9 +7,12 @@ intersector, on the same rays, on one thread and on all threads.
 Each contender is used when its package imports and skipped with a note
 otherwise (``pip install open3d embreex trimesh rtree``). Builds are not
 timed; every timed query ran once before (warm caches, lazily built
-structures). Rays: ``--rays`` from a sphere around the mesh (twice its
-bounding radius) towards uniform points of its box, float32, tmin 0, tmax
-inf; about half hit on a closed mesh. The contenders take turns, round
+structures). Rays (``--kind sphere``, the default): ``--rays`` from a
+sphere around the mesh (twice its bounding radius) towards uniform points
+of its box, float32, tmin 0, tmax inf, in no order; about half hit on a
+closed mesh. ``--kind camera``: a pinhole camera's rays row by row, the
+coherent case (raytree traces a large incoherent batch in a coherent order
+of its own, see ``structures/order.rs``; a coherent one as given). The contenders take turns, round
 after round (``--repeats``; trimesh's slow intersector runs once), and the
 least wall-clock time and the least CPU time (this process and its children,
 all threads) of each count, so that a busy moment hurts every contender
@@ -58,6 +61,28 @@ def make_rays(scene: raytree.Scene, n: int, seed: int = 1) -> np.ndarray:
     return np.concatenate([origins, targets - origins], axis=1).astype(np.float32)
 
 
+def make_camera_rays(scene: raytree.Scene, n: int) -> np.ndarray:
+    """About n rays of a pinhole camera (a square image, row by row, one ray
+    through each pixel's center), float32: from outside the mesh's box
+    (1.2 bounding diagonals from its center, above and to one side) towards
+    its center, 45° across. Coherent: neighbours start at one point and
+    point nearly alike."""
+    lo, hi = scene.bounds.astype(np.float64)
+    center, diagonal = (lo + hi) / 2, np.linalg.norm(hi - lo)
+    eye = center + 1.2 * diagonal * np.array([0.3, 0.4, 0.866]) / np.linalg.norm([0.3, 0.4, 0.866])
+    forward = (center - eye) / np.linalg.norm(center - eye)
+    right = np.cross(forward, [0.0, 1.0, 0.0])
+    right /= np.linalg.norm(right)
+    up = np.cross(right, forward)
+    side = int(np.sqrt(n))
+    ys, xs = np.mgrid[0:side, 0:side]
+    extent = np.tan(np.radians(45.0) / 2)
+    px = ((xs.reshape(-1, 1) + 0.5) / side * 2 - 1) * extent
+    py = (1 - (ys.reshape(-1, 1) + 0.5) / side * 2) * extent
+    d = forward + px * right + py * up
+    return np.concatenate([np.broadcast_to(eye, d.shape), d], axis=1).astype(np.float32)
+
+
 def best(fn, repeats: int) -> tuple[float, float]:
     """The least wall-clock seconds and the least CPU seconds (this process,
     all threads) of `repeats` calls."""
@@ -78,6 +103,13 @@ def main() -> None:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--scene", default="chess:1M", help="mesh file or built-in scene (default chess:1M)")
     p.add_argument("--rays", type=int, default=1_000_000)
+    p.add_argument(
+        "--kind",
+        choices=["sphere", "camera"],
+        default="sphere",
+        help="sphere: from random points around the mesh towards random points of its box, in no "
+        "order (incoherent; the default); camera: a pinhole camera's rays, row by row (coherent)",
+    )
     p.add_argument("--threads", default=f"1,{os.cpu_count()}", help="thread counts, comma-separated")
     p.add_argument("--repeats", type=int, default=3)
     p.add_argument("--structure", default="bvh", help="raytree structure[/traversal] (default bvh)")
@@ -103,10 +135,10 @@ def main() -> None:
         scene = raytree.Scene.load(args.scene)
     else:
         scene = raytree.Scene.builtin(args.scene)
-    rays = make_rays(scene, args.rays)
+    rays = make_rays(scene, args.rays) if args.kind == "sphere" else make_camera_rays(scene, args.rays)
     n = len(rays)
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
-    print(f"# {scene.name}: {scene.triangle_count} triangles, {n} rays, best of {args.repeats}")
+    print(f"# {scene.name}: {scene.triangle_count} triangles, {n} {args.kind} rays, best of {args.repeats}")
     print(
         f"# {platform.processor() or platform.machine()}, {os.cpu_count()} logical cores, "
         f"load average {load:.2f} at start, Python {platform.python_version()}, numpy {np.__version__}"

@@ -250,6 +250,14 @@ impl<T: Copy + Default + Send + Sync> Answers<T> {
         if n < MIN_RAYS {
             return Answers::Direct;
         }
+        // The keys read the caller's rows in order; a batch coherent as
+        // given is traced as given.
+        let Some(order) = coherent_order(n, |i| {
+            let (o, d, _, _) = rays.parts(i);
+            (o, d)
+        }) else {
+            return Answers::Direct;
+        };
         // Arrays of this size cost a page fault per 4 KiB page written:
         // they go on huge pages. The rays' parts are copied there first, in
         // their order: the coherent order reads them at random, and the
@@ -265,21 +273,6 @@ impl<T: Copy + Default + Send + Sync> Answers<T> {
                 [o.x, o.y, o.z, d.x, d.y, d.z, tmin, tmax]
             })
             .collect_into_vec(&mut parts);
-        let part = |i: usize| {
-            let p = &parts[i];
-            (
-                Vec3::new(p[0], p[1], p[2]),
-                Vec3::new(p[3], p[4], p[5]),
-                p[6],
-                p[7],
-            )
-        };
-        let Some(order) = coherent_order(n, |i| {
-            let (o, d, _, _) = part(i);
-            (o, d)
-        }) else {
-            return Answers::Direct;
-        };
         let mut sorted: Vec<T> = raytree::pages::vec_with_capacity(n);
         sorted.resize(n, T::default());
         let mut work = counted.then(|| {

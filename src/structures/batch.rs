@@ -429,6 +429,8 @@ mod tests {
     fn batch_of(scene: &Scene, bvh: &Bvh, n: usize) {
         let mut rays = rays(scene, n);
         rays[7] = Ray::infinite(Vec3::NAN, Vec3::X);
+        let order = coherent_order(n, |i| (rays[i].origin(), rays[i].direction()));
+        assert_eq!(order.is_some(), n >= crate::structures::order::MIN_RAYS);
         for (s, t) in [
             (StructureKind::Bvh, TraversalKind::Stack),
             (StructureKind::Bvh, TraversalKind::Laine2),

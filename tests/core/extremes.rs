@@ -427,7 +427,11 @@ fn planes_behind_the_origin_are_missed_where_t_underflows() {
         for k in [64, 80, 100, 120] {
             let ray = Ray::infinite(o + Vec3::new(0.0, 0.25 * s, 0.25 * s), Vec3::X * p2(k));
             assert_eq!(exact_hit(&behind, &ray), Some(None), "2^-{e}, 2^{k}");
-            assert_eq!(behind.intersect(&ray, ray.tmin, ray.tmax), None, "2^-{e}, 2^{k}");
+            assert_eq!(
+                behind.intersect(&ray, ray.tmin, ray.tmax),
+                None,
+                "2^-{e}, 2^{k}"
+            );
             let (t, _, _) = front.intersect(&ray, ray.tmin, ray.tmax).expect("in front");
             // (Where the exact t is below half the least subnormal, +0.)
             assert!(t >= 0.0 && t.is_sign_positive(), "2^-{e}, 2^{k}: t = {t:e}");
