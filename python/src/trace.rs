@@ -11,7 +11,7 @@ use rayon::prelude::*;
 use raytree::geometry::{Hit, Ray, Triangle};
 use raytree::prelude::Vec3;
 use raytree::stats::{Counters, HitCount, HitList, NoStats};
-use raytree::structures::order::{coherent_order, regroup, MIN_RAYS};
+use raytree::structures::order::{coherent_order, places, MIN_RAYS};
 use raytree::structures::{sort_hits, Accel, Tracer, WithAccel};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
@@ -224,18 +224,17 @@ fn counts(c: &Counters) -> [u32; 3] {
 /// Where a per-ray query's answers come from: traced ray by ray as the
 /// outputs are written (a small batch), or traced beforehand in the core's
 /// coherent order ([`coherent_order`]: rays that start close and point
-/// alike one after another, which keeps their nodes in cache) and regrouped
-/// by chunk of rays ([`regroup`]). The answers, counters included, are the
-/// same either way.
+/// alike one after another, which keeps their nodes in cache) and read back
+/// from each ray's place in that order ([`places`]). The answers, counters
+/// included, are the same either way.
 enum Answers<T> {
     /// Traced as the outputs are written.
     Direct,
-    /// Every ray's answer with its place in its chunk, chunk after chunk
-    /// (a chunk's answers in no particular order), and the counters in the
-    /// same places when asked for.
+    /// The answers (and counters, when asked for) of each chunk of the
+    /// order, and each ray's place in the order.
     Ordered {
-        grouped: Vec<(T, u16)>,
-        work: Option<Vec<([u32; 3], u16)>>,
+        traced: Vec<(Vec<T>, Vec<[u32; 3]>)>,
+        place: Vec<u32>,
     },
 }
 
@@ -273,60 +272,36 @@ impl<T: Copy + Default + Send + Sync> Answers<T> {
                 [o.x, o.y, o.z, d.x, d.y, d.z, tmin, tmax]
             })
             .collect_into_vec(&mut parts);
-        let mut sorted: Vec<T> = raytree::pages::vec_with_capacity(n);
-        sorted.resize(n, T::default());
-        let mut work = counted.then(|| {
-            let mut w: Vec<[u32; 3]> = raytree::pages::vec_with_capacity(n);
-            w.resize(n, [0; 3]);
-            w
-        });
-        let works: Vec<Option<&mut [[u32; 3]]>> = match work.as_mut() {
-            Some(w) => w.chunks_mut(CHUNK).map(Some).collect(),
-            None => (0..n.div_ceil(CHUNK)).map(|_| None).collect(),
-        };
-        order
+        let place = places(&order);
+        let traced = order
             .par_chunks(CHUNK)
-            .zip(sorted.par_chunks_mut(CHUNK))
-            .zip(works)
-            .for_each(|((ids, out), w)| {
-                // The chunk's rays first, in a loop of independent loads
-                // the processor overlaps (the caller's rows are scattered
-                // in this order).
-                // A loop of bare copies first, so that many of these cache
-                // misses are in flight at once (building each ray between
-                // them left one at a time: 90 ns a ray).
+            .map(|ids| {
+                // The chunk's rays first, in a loop of bare copies, so that
+                // many of these cache misses are in flight at once
+                // (building each ray between them left one at a time: 90
+                // ns a ray).
                 let near: Vec<[f32; 8]> = ids.iter().map(|&i| parts[i as usize]).collect();
-                let local: Vec<Ray> = ids
-                    .iter()
-                    .zip(&near)
-                    .map(|(&i, p)| {
-                        let (o, d) = (Vec3::new(p[0], p[1], p[2]), Vec3::new(p[3], p[4], p[5]));
-                        make_ray(i as usize, (o, d, p[6], p[7]), invalid)
-                    })
-                    .collect();
-                match w {
-                    None => {
-                        for (ray, slot) in local.iter().zip(out) {
-                            *slot = f(ray, None);
-                        }
-                    }
-                    Some(w) => {
-                        for ((ray, slot), w) in local.iter().zip(out).zip(w) {
+                let local = ids.iter().zip(&near).map(|(&i, p)| {
+                    let (o, d) = (Vec3::new(p[0], p[1], p[2]), Vec3::new(p[3], p[4], p[5]));
+                    make_ray(i as usize, (o, d, p[6], p[7]), invalid)
+                });
+                if counted {
+                    local
+                        .map(|ray| {
                             let mut c = Counters::default();
-                            *slot = f(ray, Some(&mut c));
-                            *w = counts(&c);
-                        }
-                    }
+                            (f(&ray, Some(&mut c)), counts(&c))
+                        })
+                        .unzip()
+                } else {
+                    (local.map(|ray| f(&ray, None)).collect(), Vec::new())
                 }
-            });
-        Answers::Ordered {
-            grouped: regroup(&order, &sorted, CHUNK),
-            work: work.map(|w| regroup(&order, &w, CHUNK)),
-        }
+            })
+            .collect();
+        Answers::Ordered { traced, place }
     }
 
     /// The answers of chunk `c` (`len` rays): `put(j, answer)` for each of
-    /// its rays `j` (in no particular order), their counters into `work`.
+    /// its rays `j`, their counters into `work`.
     #[inline(always)]
     fn chunk<F>(
         &self,
@@ -353,17 +328,12 @@ impl<T: Copy + Default + Send + Sync> Answers<T> {
                     put(j, v);
                 }
             }
-            Answers::Ordered {
-                grouped,
-                work: counted,
-            } => {
-                let at = c * CHUNK..c * CHUNK + len;
-                for &(v, j) in &grouped[at.clone()] {
-                    put(j as usize, v);
-                }
-                if let (Some(w), Some(counted)) = (work, counted) {
-                    for &(v, j) in &counted[at] {
-                        w.set_counts(j as usize, v);
+            Answers::Ordered { traced, place } => {
+                for (j, &k) in place[c * CHUNK..c * CHUNK + len].iter().enumerate() {
+                    let (answers, work_of) = &traced[k as usize / CHUNK];
+                    put(j, answers[k as usize % CHUNK]);
+                    if let Some(w) = work.as_mut() {
+                        w.set_counts(j, work_of[k as usize % CHUNK]);
                     }
                 }
             }

@@ -10,7 +10,7 @@ use crate::error::{Error, Result};
 use crate::geometry::Triangle;
 use crate::geometry::{Hit, Ray};
 use crate::stats::{Counters, HitCount, HitList, NoStats};
-use crate::structures::order::{coherent_order, regroup};
+use crate::structures::order::{coherent_order, places};
 use crate::structures::sort_hits;
 use rayon::prelude::*;
 use std::sync::Arc;
@@ -142,7 +142,8 @@ fn batch<A: Accel, T: Send>(
 }
 
 /// [`batch`] for plain answers, traced in [`coherent_order`] where the
-/// batch is large enough (each answer then put back into its ray's slot):
+/// batch is large enough (each answer then read back from its ray's place
+/// in that order, [`places`], into the ray's slot):
 /// the same answers and counter sums as in the given order, in less time on
 /// incoherent batches.
 fn batch_coherent<A: Accel, T: Send + Sync + Copy + Default>(
@@ -158,67 +159,44 @@ fn batch_coherent<A: Accel, T: Send + Sync + Copy + Default>(
     else {
         return batch(accel, rays, out, counters, one, one_uncounted);
     };
-    // On huge pages: a fresh array this size costs a page fault per 4 KiB.
-    let mut sorted: Vec<T> = crate::pages::vec_with_capacity(rays.len());
-    sorted.resize(rays.len(), T::default());
-    match counters {
-        None => {
-            par_chunks_in(rays, &order, &mut sorted, &|r, o, _| {
-                for (ray, slot) in r.iter().zip(o) {
-                    *slot = one_uncounted(accel, ray);
-                }
-            });
-        }
-        Some(total) => {
-            *total += par_chunks_in(rays, &order, &mut sorted, &|r, o, c| {
-                for (ray, slot) in r.iter().zip(o) {
-                    *slot = one(accel, ray, c);
-                }
-            });
-            total.rays += rays.len() as u64;
-        }
-    }
-    put_back(&order, &sorted, out);
-    Ok(())
-}
-
-/// `chunk` over the rays `order` lists, a chunk at a time in parallel, with
-/// a [`Counters`] per chunk (their sum returned): answers into `sorted` in
-/// that order. Each chunk's rays are copied out first, in a loop of
-/// independent loads the processor overlaps, rather than one cache miss at
-/// the start of each ray's traversal.
-fn par_chunks_in<T: Send>(
-    rays: &[Ray],
-    order: &[u32],
-    sorted: &mut [T],
-    chunk: &CountedChunk<'_, T>,
-) -> Counters {
-    order
+    let place = places(&order);
+    // A chunk of `order` at a time, its rays copied out first in a loop of
+    // independent loads the processor overlaps (rather than a cache miss
+    // at the start of each ray's traversal), its answers into a vector of
+    // its own, with a `Counters` per chunk when counted.
+    let counted = counters.is_some();
+    let traced: Vec<(Vec<T>, Counters)> = order
         .par_chunks(CHUNK)
-        .zip(sorted.par_chunks_mut(CHUNK))
-        .map(|(ids, o)| {
-            let local: Vec<Ray> = ids.iter().map(|&i| rays[i as usize]).collect();
+        .map(|ids| {
             let mut c = Counters::default();
-            chunk(&local, o, &mut c);
-            c
+            let answers = ids
+                .iter()
+                .map(|&i| rays[i as usize])
+                .collect::<Vec<Ray>>()
+                .iter()
+                .map(|ray| match counted {
+                    true => one(accel, ray, &mut c),
+                    false => one_uncounted(accel, ray),
+                })
+                .collect();
+            (answers, c)
         })
-        .reduce(Counters::default, |mut a, b| {
-            a += b;
-            a
-        })
-}
-
-/// Answers made in `order` (`sorted`) into their rays' slots of `out`, a
-/// chunk of rays at a time ([`regroup`]).
-fn put_back<T: Send + Sync + Copy + Default>(order: &[u32], sorted: &[T], out: &mut [T]) {
-    let grouped = regroup(order, sorted, CHUNK);
+        .collect();
+    if let Some(total) = counters {
+        for (_, c) in &traced {
+            *total += *c;
+        }
+        total.rays += rays.len() as u64;
+    }
     out.par_chunks_mut(CHUNK)
-        .zip(grouped.par_chunks(CHUNK))
-        .for_each(|(o, g)| {
-            for &(v, at) in g {
-                o[at as usize] = v;
+        .zip(place.par_chunks(CHUNK))
+        .for_each(|(o, p)| {
+            for (slot, &k) in o.iter_mut().zip(p) {
+                let k = k as usize;
+                *slot = traced[k / CHUNK].0[k % CHUNK];
             }
         });
+    Ok(())
 }
 
 /// `chunk` over matching chunks of `rays` and `out` (same length), in

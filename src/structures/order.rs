@@ -11,7 +11,8 @@
 //! direction, [`BITS`] bits per coordinate, sorted stably (equal keys keep
 //! their index order), so it depends on the rays only. The answer of every
 //! ray is its own: the batch queries ([`super::Tracer`], the Python
-//! package) trace in this order and put each answer back in its ray's slot,
+//! package) trace in this order and read each ray's answer back from its
+//! place in it ([`places`]) into the ray's slot,
 //! and counters summed over a batch are sums of the same per-ray counts.
 //!
 //! Measured (`python/bench/bench_raycast.py`, bvh8 on dragon.obj, one
@@ -23,6 +24,7 @@
 
 use crate::prelude::Vec3;
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicU32, Ordering};
 
 /// Bits per coordinate of the sort key (six coordinates: 24 bits).
 pub const BITS: u32 = 4;
@@ -168,29 +170,34 @@ fn sort_indices(keyed: &[(u32, u32)]) -> Vec<u32> {
     order
 }
 
-/// Answers made in `order` (`sorted[k]` is ray `order[k]`'s) regrouped by
-/// block of `block` rays: entry `k` of the result is an answer of a ray of
-/// block `k / block` (rays `block * (k / block)` and on) with that ray's
-/// place in its block, so that a block's answers can be written out where
-/// its outputs stay in cache.
+/// Where each ray's answer lies when a batch is traced in `order`: entry
+/// `i` is the position of ray `i` in `order` (the inverse permutation),
+/// made in parallel.
 ///
-/// One pass that reads `sorted` in order and writes one stream per block:
-/// putting each answer straight into its ray's slot instead would be a
-/// cache miss per ray (measured: four fifths of the Python `cast_rays`
-/// overhead on a million rays), and blocks of up to 65536 rays fit the
-/// caches. `block` must be at most 65536.
-pub fn regroup<T: Copy + Default>(order: &[u32], sorted: &[T], block: usize) -> Vec<(T, u16)> {
-    assert!(block > 0 && block <= 1 << 16 && order.len() == sorted.len());
-    let n = order.len();
-    let mut next: Vec<usize> = (0..n.div_ceil(block)).map(|b| b * block).collect();
-    let mut grouped: Vec<(T, u16)> = crate::pages::vec_with_capacity(n);
-    grouped.resize(n, (T::default(), 0));
-    for (&i, &v) in order.iter().zip(sorted) {
-        let (b, at) = (i as usize / block, i as usize % block);
-        grouped[next[b]] = (v, at as u16);
-        next[b] += 1;
-    }
-    grouped
+/// A query traces `order` a chunk at a time, each chunk's answers into a
+/// vector of its own (no array of the whole batch to fill beforehand), then
+/// writes its outputs a chunk of rays at a time, reading ray `i`'s answer
+/// at `places[i]`: independent loads that the processor overlaps, where
+/// scattering each answer straight into the outputs' slots would be a
+/// dependent cache miss per output array (measured: four fifths of the
+/// Python `cast_rays` overhead on a million rays), and where regrouping the
+/// answers by output chunk first was a pass that ran on one thread.
+pub fn places(order: &[u32]) -> Vec<u32> {
+    let place: Vec<AtomicU32> = (0..order.len())
+        .into_par_iter()
+        .with_min_len(1 << 14)
+        .map(|_| AtomicU32::new(0))
+        .collect();
+    const PART: usize = 1 << 14;
+    order.par_chunks(PART).enumerate().for_each(|(c, ids)| {
+        for (j, &i) in ids.iter().enumerate() {
+            // Each entry is written once, by one task; `Relaxed` is a plain
+            // store, and the join of the parallel loop orders it before the
+            // reads below.
+            place[i as usize].store((c * PART + j) as u32, Ordering::Relaxed);
+        }
+    });
+    place.into_iter().map(AtomicU32::into_inner).collect()
 }
 
 #[cfg(test)]
@@ -242,7 +249,7 @@ mod tests {
     }
 
     #[test]
-    fn the_order_is_a_permutation_and_regrouping_puts_answers_back() {
+    fn the_order_is_a_permutation_and_places_invert_it() {
         let r = rays(MIN_RAYS + 777, 2);
         let order = coherent_order(r.len(), |i| r[i]).unwrap();
         assert_eq!(order.len(), r.len());
@@ -250,19 +257,12 @@ mod tests {
         // Deterministic, and not the identity on random rays.
         assert_eq!(coherent_order(r.len(), |i| r[i]).unwrap(), order);
         assert!(order.iter().enumerate().any(|(k, &i)| k != i as usize));
-        // Each ray's "answer" is its index: every block holds exactly its
-        // own rays, each with its place in the block.
-        let sorted: Vec<u32> = order.clone();
-        for block in [1, 1000, 1024, 1 << 16] {
-            let grouped = regroup(&order, &sorted, block);
-            assert_eq!(grouped.len(), r.len());
-            let mut seen = vec![false; r.len()];
-            for (k, &(v, at)) in grouped.iter().enumerate() {
-                let first = k / block * block;
-                assert_eq!(v as usize, first + at as usize);
-                assert!(!std::mem::replace(&mut seen[v as usize], true));
-            }
+        let place = places(&order);
+        assert_eq!(place.len(), r.len());
+        for (i, &k) in place.iter().enumerate() {
+            assert_eq!(order[k as usize] as usize, i);
         }
+        assert!(places(&[]).is_empty());
     }
 
     #[test]
