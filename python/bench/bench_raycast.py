@@ -11,8 +11,7 @@ structures). Rays (``--kind sphere``, the default): ``--rays`` from a
 sphere around the mesh (twice its bounding radius) towards uniform points
 of its box, float32, tmin 0, tmax inf, in no order; about half hit on a
 closed mesh. ``--kind camera``: a pinhole camera's rays row by row, the
-coherent case (raytree traces a large incoherent batch in a coherent order
-of its own, see ``structures/order.rs``; a coherent one as given). The contenders take turns, round
+coherent case. The contenders take turns, round
 after round (``--repeats``; trimesh's slow intersector runs once), and the
 least wall-clock time and the least CPU time (this process and its children,
 all threads) of each count, so that a busy moment hurts every contender

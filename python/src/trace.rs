@@ -11,7 +11,6 @@ use rayon::prelude::*;
 use raytree::geometry::{Hit, Ray, Triangle};
 use raytree::prelude::Vec3;
 use raytree::stats::{Counters, HitCount, HitList, NoStats};
-use raytree::structures::order::{coherent_order, places, MIN_RAYS};
 use raytree::structures::{sort_hits, Accel, Tracer, WithAccel};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
@@ -90,26 +89,20 @@ impl Rays<'_> {
     /// a miss: see [`Ray::new`]).
     #[inline(always)]
     fn ray(&self, i: usize, invalid: &FirstInvalid) -> Ray {
-        make_ray(i, self.parts(i), invalid)
+        let (o, d, tmin, tmax) = self.parts(i);
+        let ray = Ray::new(o, d, tmin, tmax);
+        // `Ray::new` marks a ray it cannot trace with the interval
+        // [+inf, -inf] (checking that costs two compares, where
+        // `Ray::is_valid` would check the parts again); a caller may give
+        // that interval too, so the parts decide.
+        if ray.tmin == f32::INFINITY
+            && ray.tmax == f32::NEG_INFINITY
+            && Ray::invalid_reason(o, d, tmin, tmax).is_some()
+        {
+            invalid.note(i);
+        }
+        ray
     }
-}
-
-/// Ray `i` from its parts, noting it in `invalid` when it cannot be traced
-/// (it is then a miss: see [`Ray::new`]).
-#[inline(always)]
-fn make_ray(i: usize, (o, d, tmin, tmax): (Vec3, Vec3, f32, f32), invalid: &FirstInvalid) -> Ray {
-    let ray = Ray::new(o, d, tmin, tmax);
-    // `Ray::new` marks a ray it cannot trace with the interval [+inf, -inf]
-    // (checking that costs two compares, where `Ray::is_valid` would check
-    // the parts again); a caller may give that interval too, so the parts
-    // decide.
-    if ray.tmin == f32::INFINITY
-        && ray.tmax == f32::NEG_INFINITY
-        && Ray::invalid_reason(o, d, tmin, tmax).is_some()
-    {
-        invalid.note(i);
-    }
-    ray
 }
 
 /// The smallest index of a ray that could not be traced, shared by the
@@ -202,142 +195,10 @@ impl Split for Work<'_> {
 impl Work<'_> {
     #[inline(always)]
     fn set(&mut self, j: usize, c: &Counters) {
-        self.set_counts(j, counts(c));
-    }
-
-    #[inline(always)]
-    fn set_counts(&mut self, j: usize, [nodes, planes, triangles]: [u32; 3]) {
-        self.nodes[j] = nodes;
-        self.planes[j] = planes;
-        self.triangles[j] = triangles;
-    }
-}
-
-/// A ray's counters as [`Work`] keeps them: nodes, planes, triangles,
-/// saturated to `u32`.
-#[inline(always)]
-fn counts(c: &Counters) -> [u32; 3] {
-    let sat = |v: u64| v.min(u32::MAX as u64) as u32;
-    [sat(c.nodes), sat(c.planes), sat(c.triangles)]
-}
-
-/// Where a per-ray query's answers come from: traced ray by ray as the
-/// outputs are written (a small batch), or traced beforehand in the core's
-/// coherent order ([`coherent_order`]: rays that start close and point
-/// alike one after another, which keeps their nodes in cache) and read back
-/// from each ray's place in that order ([`places`]). The answers, counters
-/// included, are the same either way.
-enum Answers<T> {
-    /// Traced as the outputs are written.
-    Direct,
-    /// The answers (and counters, when asked for) of each chunk of the
-    /// order, and each ray's place in the order.
-    Ordered {
-        traced: Vec<(Vec<T>, Vec<[u32; 3]>)>,
-        place: Vec<u32>,
-    },
-}
-
-impl<T: Copy + Default + Send + Sync> Answers<T> {
-    /// Traces every ray with `f` in the coherent order where the batch is
-    /// large enough; `counted` asks for per-ray counters.
-    fn new<F>(rays: &Rays, invalid: &FirstInvalid, counted: bool, f: &F) -> Self
-    where
-        F: Fn(&Ray, Option<&mut Counters>) -> T + Sync,
-    {
-        let n = rays.len();
-        if n < MIN_RAYS {
-            return Answers::Direct;
-        }
-        // The keys read the caller's rows in order; a batch coherent as
-        // given is traced as given.
-        let Some(order) = coherent_order(n, |i| {
-            let (o, d, _, _) = rays.parts(i);
-            (o, d)
-        }) else {
-            return Answers::Direct;
-        };
-        // Arrays of this size cost a page fault per 4 KiB page written:
-        // they go on huge pages. The rays' parts are copied there first, in
-        // their order: the coherent order reads them at random, and the
-        // caller's array on 4 KiB pages costs a TLB miss and a cache miss
-        // per ray that the processor cannot overlap (measured: 100 ns a ray,
-        // a sixth of `cast_rays`' time on a million rays).
-        let mut parts: Vec<[f32; 8]> = raytree::pages::vec_with_capacity(n);
-        (0..n)
-            .into_par_iter()
-            .with_min_len(4096)
-            .map(|i| {
-                let (o, d, tmin, tmax) = rays.parts(i);
-                [o.x, o.y, o.z, d.x, d.y, d.z, tmin, tmax]
-            })
-            .collect_into_vec(&mut parts);
-        let place = places(&order);
-        let traced = order
-            .par_chunks(CHUNK)
-            .map(|ids| {
-                // The chunk's rays first, in a loop of bare copies, so that
-                // many of these cache misses are in flight at once
-                // (building each ray between them left one at a time: 90
-                // ns a ray).
-                let near: Vec<[f32; 8]> = ids.iter().map(|&i| parts[i as usize]).collect();
-                let local = ids.iter().zip(&near).map(|(&i, p)| {
-                    let (o, d) = (Vec3::new(p[0], p[1], p[2]), Vec3::new(p[3], p[4], p[5]));
-                    make_ray(i as usize, (o, d, p[6], p[7]), invalid)
-                });
-                if counted {
-                    local
-                        .map(|ray| {
-                            let mut c = Counters::default();
-                            (f(&ray, Some(&mut c)), counts(&c))
-                        })
-                        .unzip()
-                } else {
-                    (local.map(|ray| f(&ray, None)).collect(), Vec::new())
-                }
-            })
-            .collect();
-        Answers::Ordered { traced, place }
-    }
-
-    /// The answers of chunk `c` (`len` rays): `put(j, answer)` for each of
-    /// its rays `j`, their counters into `work`.
-    #[inline(always)]
-    fn chunk<F>(
-        &self,
-        (rays, invalid, f): (&Rays, &FirstInvalid, &F),
-        (c, len): (usize, usize),
-        mut work: Option<&mut Work>,
-        mut put: impl FnMut(usize, T),
-    ) where
-        F: Fn(&Ray, Option<&mut Counters>) -> T,
-    {
-        match self {
-            Answers::Direct => {
-                for j in 0..len {
-                    let ray = rays.ray(c * CHUNK + j, invalid);
-                    let v = match work.as_mut() {
-                        None => f(&ray, None),
-                        Some(w) => {
-                            let mut s = Counters::default();
-                            let v = f(&ray, Some(&mut s));
-                            w.set(j, &s);
-                            v
-                        }
-                    };
-                    put(j, v);
-                }
-            }
-            Answers::Ordered { traced, place } => {
-                for (j, &k) in place[c * CHUNK..c * CHUNK + len].iter().enumerate() {
-                    let (answers, work_of) = &traced[k as usize / CHUNK];
-                    put(j, answers[k as usize % CHUNK]);
-                    if let Some(w) = work.as_mut() {
-                        w.set_counts(j, work_of[k as usize % CHUNK]);
-                    }
-                }
-            }
-        }
+        let sat = |v: u64| v.min(u32::MAX as u64) as u32;
+        self.nodes[j] = sat(c.nodes);
+        self.planes[j] = sat(c.planes);
+        self.triangles[j] = sat(c.triangles);
     }
 }
 
@@ -491,11 +352,6 @@ impl WithAccel for Closest<'_> {
             invalid,
         } = self;
         let n = rays.len();
-        let f = |ray: &Ray, c: Option<&mut Counters>| match c {
-            None => a.closest_hit(ray, &mut NoStats),
-            Some(c) => a.closest_hit(ray, c),
-        };
-        let answers = Answers::new(&rays, invalid, out.work.is_some(), &f);
         cut(out, chunk_sizes(n))
             .into_par_iter()
             .enumerate()
@@ -505,11 +361,19 @@ impl WithAccel for Closest<'_> {
                 // structure whose leaves keep their own copies of the
                 // triangles (bvh4, bvh8) never touches the scene's arrays,
                 // and each hit's normal is a cache miss.
-                let mut work = o.work.take();
-                let q = (&rays, invalid, &f);
-                answers.chunk(q, (c, o.t.len()), work.as_mut(), |j, hit| {
-                    o.set(j, hit, geometries)
-                });
+                for j in 0..o.t.len() {
+                    let ray = rays.ray(c * CHUNK + j, invalid);
+                    let hit = match o.work.as_mut() {
+                        None => a.closest_hit(&ray, &mut NoStats),
+                        Some(w) => {
+                            let mut s = Counters::default();
+                            let hit = a.closest_hit(&ray, &mut s);
+                            w.set(j, &s);
+                            hit
+                        }
+                    };
+                    o.set(j, hit, geometries);
+                }
                 for (prim, normal) in o.prim.iter().zip(o.normal.chunks_exact_mut(3)) {
                     normal.copy_from_slice(normals.get(*prim as usize).unwrap_or(&[0.0; 3]));
                 }
@@ -557,18 +421,22 @@ impl WithAccel for Occluded<'_> {
     fn run<A: Accel>(self, a: &A) {
         let Occluded { rays, out, invalid } = self;
         let n = rays.len();
-        let f = |ray: &Ray, c: Option<&mut Counters>| match c {
-            None => a.any_hit(ray, &mut NoStats).is_some(),
-            Some(c) => a.any_hit(ray, c).is_some(),
-        };
-        let answers = Answers::new(&rays, invalid, out.work.is_some(), &f);
         cut(out, chunk_sizes(n))
             .into_par_iter()
             .enumerate()
             .for_each(|(c, mut o)| {
-                let q = (&rays, invalid, &f);
-                let len = o.values.len();
-                answers.chunk(q, (c, len), o.work.as_mut(), |j, v| o.values[j] = v);
+                for j in 0..o.values.len() {
+                    let ray = rays.ray(c * CHUNK + j, invalid);
+                    o.values[j] = match o.work.as_mut() {
+                        None => a.any_hit(&ray, &mut NoStats).is_some(),
+                        Some(w) => {
+                            let mut s = Counters::default();
+                            let hit = a.any_hit(&ray, &mut s).is_some();
+                            w.set(j, &s);
+                            hit
+                        }
+                    };
+                }
             });
     }
 }
@@ -588,22 +456,24 @@ impl WithAccel for CountHits<'_> {
     fn run<A: Accel>(self, a: &A) {
         let CountHits { rays, out, invalid } = self;
         let n = rays.len();
-        let f = |ray: &Ray, c: Option<&mut Counters>| match c {
-            None => a.count_hits(ray),
-            Some(c) => {
-                let mut sink = HitCount::new(c);
-                a.all_hits(ray, &mut sink);
-                sink.count
-            }
-        };
-        let answers = Answers::new(&rays, invalid, out.work.is_some(), &f);
         cut(out, chunk_sizes(n))
             .into_par_iter()
             .enumerate()
             .for_each(|(c, mut o)| {
-                let q = (&rays, invalid, &f);
-                let len = o.values.len();
-                answers.chunk(q, (c, len), o.work.as_mut(), |j, v| o.values[j] = v);
+                for j in 0..o.values.len() {
+                    let ray = rays.ray(c * CHUNK + j, invalid);
+                    o.values[j] = match o.work.as_mut() {
+                        None => a.count_hits(&ray),
+                        Some(w) => {
+                            let mut s = Counters::default();
+                            let mut sink = HitCount::new(&mut s);
+                            a.all_hits(&ray, &mut sink);
+                            let count = sink.count;
+                            w.set(j, &s);
+                            count
+                        }
+                    };
+                }
             });
     }
 }

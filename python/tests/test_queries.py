@@ -267,10 +267,9 @@ def test_info(chess):
 
 
 def test_large_batches_answer_as_small_ones(chess):
-    # From the core's `structures::order::MIN_RAYS` (16384) rays on, a query
-    # traces its rays in a coherent order and puts each answer back in its
-    # ray's slot: the answers, counters included, equal those of the same
-    # rays asked for in batches too small to be reordered.
+    # A batch of many chunks (1024 rays each, split between the threads)
+    # answers as the same rays asked for in ten smaller batches, counters
+    # included, and as the oracle.
     rays = make_rays(chess, 40_000, seed=4)
     pieces = np.array_split(rays, 10)
     brute = oracle(chess).cast_rays(rays)
@@ -288,8 +287,8 @@ def test_large_batches_answer_as_small_ones(chess):
                     joined = np.concatenate([p[key] for p in parts])
                     np.testing.assert_array_equal(whole[key], joined, err_msg=f"{name} {query} {counters} {key}")
             assert_same_closest(accel.cast_rays(rays, threads=threads), brute, name)
-    # The smallest index of a ray that cannot be traced is named, whatever
-    # the order the rays were traced in.
+    # The smallest index of a ray that cannot be traced is named, whichever
+    # chunk or thread met it first.
     bad = rays.copy()
     bad[[31_000, 20_123, 39_999], 3:] = 0
     accel = raytree.Accelerator(chess, "bvh8")

@@ -10,7 +10,6 @@ use crate::error::{Error, Result};
 use crate::geometry::Triangle;
 use crate::geometry::{Hit, Ray};
 use crate::stats::{Counters, HitCount, HitList, NoStats};
-use crate::structures::order::{coherent_order, places};
 use crate::structures::sort_hits;
 use rayon::prelude::*;
 use std::sync::Arc;
@@ -141,64 +140,6 @@ fn batch<A: Accel, T: Send>(
     Ok(())
 }
 
-/// [`batch`] for plain answers, traced in [`coherent_order`] where the
-/// batch is large enough (each answer then read back from its ray's place
-/// in that order, [`places`], into the ray's slot):
-/// the same answers and counter sums as in the given order, in less time on
-/// incoherent batches.
-fn batch_coherent<A: Accel, T: Send + Sync + Copy + Default>(
-    accel: &A,
-    rays: &[Ray],
-    out: &mut [T],
-    counters: Option<&mut Counters>,
-    one: impl Fn(&A, &Ray, &mut Counters) -> T + Sync,
-    one_uncounted: impl Fn(&A, &Ray) -> T + Sync,
-) -> Result<()> {
-    same_length(rays.len(), out.len())?;
-    let Some(order) = coherent_order(rays.len(), |i| (rays[i].origin(), rays[i].direction()))
-    else {
-        return batch(accel, rays, out, counters, one, one_uncounted);
-    };
-    let place = places(&order);
-    // A chunk of `order` at a time, its rays copied out first in a loop of
-    // independent loads the processor overlaps (rather than a cache miss
-    // at the start of each ray's traversal), its answers into a vector of
-    // its own, with a `Counters` per chunk when counted.
-    let counted = counters.is_some();
-    let traced: Vec<(Vec<T>, Counters)> = order
-        .par_chunks(CHUNK)
-        .map(|ids| {
-            let mut c = Counters::default();
-            let answers = ids
-                .iter()
-                .map(|&i| rays[i as usize])
-                .collect::<Vec<Ray>>()
-                .iter()
-                .map(|ray| match counted {
-                    true => one(accel, ray, &mut c),
-                    false => one_uncounted(accel, ray),
-                })
-                .collect();
-            (answers, c)
-        })
-        .collect();
-    if let Some(total) = counters {
-        for (_, c) in &traced {
-            *total += *c;
-        }
-        total.rays += rays.len() as u64;
-    }
-    out.par_chunks_mut(CHUNK)
-        .zip(place.par_chunks(CHUNK))
-        .for_each(|(o, p)| {
-            for (slot, &k) in o.iter_mut().zip(p) {
-                let k = k as usize;
-                *slot = traced[k / CHUNK].0[k % CHUNK];
-            }
-        });
-    Ok(())
-}
-
 /// `chunk` over matching chunks of `rays` and `out` (same length), in
 /// parallel.
 fn par_chunks<T: Send>(rays: &[Ray], out: &mut [T], chunk: &(dyn Fn(&[Ray], &mut [T]) + Sync)) {
@@ -244,7 +185,7 @@ impl<A: Accel> Tracer for A {
         hits: &mut [Option<Hit>],
         counters: Option<&mut Counters>,
     ) -> Result<()> {
-        batch_coherent(
+        batch(
             self,
             rays,
             hits,
@@ -260,7 +201,7 @@ impl<A: Accel> Tracer for A {
         occluded: &mut [bool],
         counters: Option<&mut Counters>,
     ) -> Result<()> {
-        batch_coherent(
+        batch(
             self,
             rays,
             occluded,
@@ -276,7 +217,7 @@ impl<A: Accel> Tracer for A {
         counts: &mut [u32],
         counters: Option<&mut Counters>,
     ) -> Result<()> {
-        batch_coherent(
+        batch(
             self,
             rays,
             counts,
@@ -396,25 +337,14 @@ mod tests {
     fn batches_answer_as_single_rays_on_any_thread_count() {
         let scene = Scene::from_spec("chess:3000").unwrap();
         let bvh = Bvh::build(&scene.triangles, &BuildOptions::new(Builder::Sah));
-        // Below and above the size from which batches are traced in the
-        // coherent order (structures/order.rs).
-        for n in [5000, crate::structures::order::MIN_RAYS + 3000] {
-            batch_of(&scene, &bvh, n);
-        }
-        by_name(&scene, &bvh);
-    }
-
-    fn batch_of(scene: &Scene, bvh: &Bvh, n: usize) {
-        let mut rays = rays(scene, n);
+        let mut rays = rays(&scene, 5000);
         rays[7] = Ray::infinite(Vec3::NAN, Vec3::X);
-        let order = coherent_order(n, |i| (rays[i].origin(), rays[i].direction()));
-        assert_eq!(order.is_some(), n >= crate::structures::order::MIN_RAYS);
         for (s, t) in [
             (StructureKind::Bvh, TraversalKind::Stack),
             (StructureKind::Bvh, TraversalKind::Laine2),
             (StructureKind::Dst, TraversalKind::Stack),
         ] {
-            let (built, _) = Built::new(s, t, bvh, scene.triangles.clone()).unwrap();
+            let (built, _) = Built::new(s, t, &bvh, scene.triangles.clone()).unwrap();
             let (want, want_any, want_counts) = built.with(Single(&rays));
             let tracer: Box<dyn Tracer> = built.tracer();
             assert_eq!(tracer.name(), s.name());
@@ -433,38 +363,25 @@ mod tests {
                 assert_eq!(hits, want, "{} {threads} threads", s.name());
                 assert_eq!(occluded, want_any);
                 assert_eq!(c, want_counts);
-                // Counts (traced in the coherent order when the batch is
-                // large) against the lists (always in the given order).
-                let mut counts = vec![0; rays.len()];
-                pool.install(|| tracer.count_hits(&rays, &mut counts, None).unwrap());
-                let lists = tracer.list_hits(&rays, None);
-                let listed: Vec<u32> = lists
-                    .offsets
-                    .windows(2)
-                    .map(|w| (w[1] - w[0]) as u32)
-                    .collect();
-                assert_eq!(counts, listed);
                 assert!(hits[7].is_none());
             }
             let mut short = vec![None; 3];
             assert!(tracer.intersect(&rays, &mut short, None).is_err());
         }
-    }
-
-    fn by_name(scene: &Scene, bvh: &Bvh) {
-        let t = super::tracer("bvh/laine-2", bvh, scene.triangles.clone()).unwrap();
+        // By name.
+        let t = super::tracer("bvh/laine-2", &bvh, scene.triangles.clone()).unwrap();
         assert_eq!(t.name(), "bvh");
         assert_eq!(
-            super::tracer("dst", bvh, scene.triangles.clone())
+            super::tracer("dst", &bvh, scene.triangles.clone())
                 .unwrap()
                 .name(),
             "dst"
         );
-        let e = super::tracer("bvh/laine-3", bvh, scene.triangles.clone())
+        let e = super::tracer("bvh/laine-3", &bvh, scene.triangles.clone())
             .err()
             .unwrap();
         assert!(e.to_string().contains("unknown traversal 'laine-3'"), "{e}");
-        assert!(super::tracer("dst/sparse", bvh, scene.triangles.clone()).is_err());
+        assert!(super::tracer("dst/sparse", &bvh, scene.triangles.clone()).is_err());
     }
 
     struct Single<'a>(&'a [Ray]);

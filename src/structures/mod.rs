@@ -26,7 +26,6 @@ pub mod cwbvh;
 pub mod dst;
 pub mod htree;
 pub mod implicit;
-pub mod order;
 pub mod registry;
 pub mod shared;
 pub mod sparse;
