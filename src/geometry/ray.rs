@@ -36,6 +36,27 @@ pub struct Ray {
     pub(crate) shear: Vec3,
 }
 
+/// The watertight test's axis `kz`: the first axis of the largest direction
+/// magnitude (`x_largest`: |x| ≥ |y| and |x| ≥ |z|; `y_at_least_z`: |y| ≥
+/// |z|), so that the choice is deterministic. Computed without branches:
+/// random directions would mispredict them (a third of [`Ray::new`]'s time
+/// on a batch of random rays).
+#[inline(always)]
+fn largest_axis(x_largest: bool, y_at_least_z: bool) -> usize {
+    let not_x = !x_largest as usize;
+    not_x + (not_x & !y_at_least_z as usize)
+}
+
+/// `[kx, ky, kz]`: `(kz + 1, kz + 2) mod 3`, swapped where the direction's
+/// `kz` component is negative (so that the sheared triangle keeps its
+/// winding), without branches.
+#[inline(always)]
+fn shear_axes(kz: usize, negative: bool) -> [usize; 3] {
+    let (next, after) = ([1, 2, 0][kz], [2, 0, 1][kz]);
+    let swap = (next ^ after) & (negative as usize).wrapping_neg();
+    [next ^ swap, after ^ swap, kz]
+}
+
 impl Ray {
     /// A ray over `[tmin, tmax]`. A zero direction component gets an infinite
     /// reciprocal of the same sign (`1/+0 = +inf`, `1/-0 = -inf`), so slab
@@ -67,17 +88,9 @@ impl Ray {
         }
         let inv_direction = (Vec4::ONE / d4).truncate();
         let a = direction.abs();
-        // First maximum, so that the choice is deterministic. Computed
-        // without branches: random directions would mispredict them (a
-        // third of this function's time on a batch of random rays).
-        let not_x = !(a.x >= a.y && a.x >= a.z) as usize;
-        let kz = not_x + (not_x & (a.y < a.z) as usize);
+        let kz = largest_axis(a.x >= a.y && a.x >= a.z, a.y >= a.z);
         let d = direction.to_array();
-        let neg = (d[kz] < 0.0) as usize;
-        // (kz + 1, kz + 2) mod 3, swapped for a negative direction[kz].
-        let (next, after) = ([1, 2, 0][kz], [2, 0, 1][kz]);
-        let swap = (next ^ after) & neg.wrapping_neg();
-        let (kx, ky) = (next ^ swap, after ^ swap);
+        let [kx, ky, kz] = shear_axes(kz, d[kz] < 0.0);
         let shear = (Vec4::new(d[kx], d[ky], 1.0, 1.0) / Vec4::splat(d[kz])).truncate();
         Ray {
             origin,
@@ -129,19 +142,8 @@ impl Ray {
         let (kz0, kz1) = (kz0.bitmask(), kz1.bitmask());
         let neg = dz.cmplt(Vec4::ZERO).bitmask();
         let k: [[usize; 3]; 4] = std::array::from_fn(|l| {
-            let kz = if kz0 >> l & 1 != 0 {
-                0
-            } else if kz1 >> l & 1 != 0 {
-                1
-            } else {
-                2
-            };
-            let (kx, ky) = ((kz + 1) % 3, (kz + 2) % 3);
-            if neg >> l & 1 != 0 {
-                [ky, kx, kz]
-            } else {
-                [kx, ky, kz]
-            }
+            let kz = largest_axis(kz0 >> l & 1 != 0, kz1 >> l & 1 != 0);
+            shear_axes(kz, neg >> l & 1 != 0)
         });
         let lanes = [x.to_array(), y.to_array(), z.to_array()];
         let pick = |j: usize| Vec4::from_array(std::array::from_fn(|l| lanes[k[l][j]][l]));
