@@ -236,6 +236,17 @@ impl Ray {
             && !(self.tmin == f32::INFINITY && self.tmax == f32::NEG_INFINITY)
     }
 
+    /// Whether `tmin` is at least 0 (false for NaN). The box tests are
+    /// conservative only from there (see
+    /// [`crate::geometry::aabb::slab_reciprocals`]); [`Self::new`] refuses
+    /// other rays, but `tmin` is a public field a caller can change
+    /// afterwards, so every structure's root test asks this too and misses
+    /// such a ray.
+    #[inline(always)]
+    pub fn has_traceable_tmin(&self) -> bool {
+        self.tmin >= 0.0
+    }
+
     /// Why a ray made of these parts is not valid, in a few words, or `None`.
     pub fn invalid_reason(origin: Vec3, direction: Vec3, tmin: f32, tmax: f32) -> Option<String> {
         Fault::of(origin, direction, tmin, tmax).map(|f| f.to_string())

@@ -114,7 +114,7 @@ pub fn enter<S: Stats>(ray: &Ray, root: &[f32; 6], stats: &mut S) -> Option<(Box
         planes: 6,
         ..Tally::default()
     };
-    if (ray.tmin.is_nan() || ray.tmin < 0.0) || br.test(root, ray.tmin, ray.tmax) == f32::INFINITY {
+    if !ray.has_traceable_tmin() || br.test(root, ray.tmin, ray.tmax) == f32::INFINITY {
         stats.add(tally);
         return None;
     }
@@ -138,7 +138,7 @@ pub fn enter_interval<S: Stats>(
         ..Tally::default()
     };
     let (tn, tf) = br.interval(&root.to_array(), ray.tmin, ray.tmax);
-    if (ray.tmin.is_nan() || ray.tmin < 0.0) || tn > tf {
+    if !ray.has_traceable_tmin() || tn > tf {
         stats.add(tally);
         return None;
     }

@@ -642,7 +642,7 @@ fn trace_kernel<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool, I: Is
     // A negative or NaN `tmin` (set after `Ray::new`, which refuses it)
     // misses, as at the other structures' root test: the box tests are
     // conservative only from `tmin ≥ 0`.
-    if w.is_empty() || (ray.tmin.is_nan() || ray.tmin < 0.0) {
+    if w.is_empty() || !ray.has_traceable_tmin() {
         return None;
     }
     // No separate test of the scene box: the root's children's boxes are
