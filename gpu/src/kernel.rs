@@ -88,6 +88,7 @@ impl Kernel {
             ("TIE_MARGIN", TIE_MARGIN),
             ("WIDENING_STEP", WIDENING_STEP),
             ("SLACK", SLACK),
+            ("MIN_NORMAL", f32::MIN_POSITIVE),
         ]
         .map(|(name, v)| format!("const {name}: f32 = {};\n", hex_f32(v)))
         .concat();

@@ -154,8 +154,8 @@ fn triangle_abc(pa: vec3f, pb: vec3f, pc: vec3f, lo: f32, hi: f32) -> i32 {
     let cz = s.z * c[kz];
     let t_scaled = u * az + v * bz + w * cz;
     // As on the CPU: T zero or subnormal (its sign may have underflowed
-    // away) is deferred too; 1.17549435e-38 is f32's least normal value.
-    if !(abs(det) >= TINY_DETERMINANT && is_finite(det) && abs(t_scaled) >= 1.17549435e-38
+    // away) is deferred too.
+    if !(abs(det) >= TINY_DETERMINANT && is_finite(det) && abs(t_scaled) >= MIN_NORMAL
         && is_finite(t_scaled)) {
         return DEFER;
     }
