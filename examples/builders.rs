@@ -10,7 +10,9 @@
 //!
 //! `RAYTREE_BUILD_ONLY=1` skips the traces; `RAYTREE_ROUNDS` sets the
 //! rounds (default 5); `RAYTREE_BUILDERS=sah,sbvh+opt` picks the variants
-//! (default: all). The peak heap is the most a one-thread build held at
+//! (default: all); `RAYTREE_SBVH_MIN_REFS` and `RAYTREE_SBVH_NODE_OVERLAP`
+//! set `BuildOptions::spatial_min_refs` and `spatial_min_node_overlap` for
+//! the `sbvh` variants. The peak heap is the most a one-thread build held at
 //! once, beyond what was live before it. Each line ends with a fingerprint
 //! of the tree (its nodes and reference list), so that a change to a
 //! builder that must not change its trees can be checked.
@@ -77,7 +79,20 @@ const VARIANTS: [Variant; 5] = [
 
 fn build(v: &Variant, tris: &[Triangle]) -> (Bvh, f64) {
     let t = Instant::now();
-    let mut bvh = Bvh::build(tris, &BuildOptions::new(v.builder));
+    let mut opts = BuildOptions::new(v.builder);
+    if let Some(f) = std::env::var("RAYTREE_SBVH_NODE_OVERLAP")
+        .ok()
+        .and_then(|s| s.parse().ok())
+    {
+        opts.spatial_min_node_overlap = f;
+    }
+    if let Some(n) = std::env::var("RAYTREE_SBVH_MIN_REFS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+    {
+        opts.spatial_min_refs = n;
+    }
+    let mut bvh = Bvh::build(tris, &opts);
     if v.optimize {
         bvh = bvh.optimize(&OptimizeOptions::default());
     }

@@ -50,9 +50,16 @@ impl PrimRef {
     }
 
     /// The box.
-    #[cfg(test)]
+    #[inline(always)]
     pub fn bounds(&self) -> Aabb {
         Aabb::new(self.lo.truncate(), self.hi.truncate())
+    }
+
+    /// The lower corner with its fourth lane cleared, for arithmetic.
+    #[inline(always)]
+    pub fn lower(&self) -> Vec3A {
+        let lo = Vec4::select(BVec4A::new(true, true, true, false), self.lo, Vec4::ZERO);
+        Vec3A::from_vec4(lo)
     }
 
     /// The box's centre, [`Aabb::center`] bit for bit (the index's lane is

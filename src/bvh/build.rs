@@ -59,6 +59,19 @@ pub struct BuildOptions {
     /// object split's children overlap by more than `alpha` times the root's
     /// surface area (Stich et al. 2009, §4.3; their `α`, default `1e-5`).
     pub alpha: f32,
+    /// [`Builder::Sbvh`]: and only where that overlap is also more than
+    /// this fraction of the node's own surface area (default 0: every node
+    /// past `alpha`, as Stich et al. do). Embree uses 0.1, which made the
+    /// build 1.1–1.7× faster but raised the SAH cost by 4.3% on
+    /// fg_hawaii_big_island.obj and 1% on chess.
+    pub spatial_min_node_overlap: f32,
+    /// [`Builder::Sbvh`]: spatial splits are tried only at nodes of more
+    /// than this many references (default 16). The smallest nodes cost the
+    /// search the most per reference (each triangle spans most of the 16
+    /// bins of every axis) and gain the least: against 0, 16 made the build
+    /// 1.5–2.2× faster on chess, hairball, bunny and battlefield.obj, the
+    /// SAH cost within 0.25% (lower on chess).
+    pub spatial_min_refs: usize,
     /// [`Builder::Sbvh`]: the reference list grows to at most this many
     /// times the number of (non-degenerate) triangles (at least 1; default
     /// 1.5).
@@ -74,8 +87,9 @@ pub(super) const PARALLEL_SUBTREE: usize = 4096;
 
 impl BuildOptions {
     /// `builder` with leaves of at most 8 triangles, 8 SAH levels (hybrid),
-    /// 32 bins per axis (16 for spatial splits), `α = 1e-5` and references growing to at most 1.5
-    /// times the triangles (sbvh).
+    /// 32 bins per axis (16 for spatial splits), `α = 1e-5`, spatial splits
+    /// at nodes of more than 16 references, and references growing to at
+    /// most 1.5 times the triangles (sbvh).
     pub fn new(builder: Builder) -> Self {
         BuildOptions {
             builder,
@@ -84,6 +98,8 @@ impl BuildOptions {
             bins: 32,
             spatial_bins: 16,
             alpha: 1e-5,
+            spatial_min_node_overlap: 0.0,
+            spatial_min_refs: 16,
             max_reference_growth: 1.5,
         }
     }

@@ -26,25 +26,13 @@
 //! children's (a spatial split leaves the parent's box, the union of its
 //! references' unclipped boxes, possibly larger).
 
-use super::binning::MAX_BINS;
+use super::binning::{best_split, PrimRef, Split, MAX_BINS};
 use super::build::{BuildOptions, PARALLEL_SUBTREE, SAH_MAX_DEPTH};
 use super::{Node, NodeKind, NO_PARENT};
 use crate::geometry::{Aabb, Triangle};
+use crate::structures::shared::simd::{self, SimdPath};
 use arrayvec::ArrayVec;
-use glam::{DVec3, Vec3};
-
-/// A triangle reference: the triangle's index and the box of its part.
-#[derive(Clone, Copy, Debug)]
-struct Ref {
-    bounds: Aabb,
-    prim: u32,
-}
-
-impl Ref {
-    fn centroid(&self) -> Vec3 {
-        self.bounds.center()
-    }
-}
+use glam::{BVec3A, DVec3, Mat4, Vec3, Vec3A, Vec4};
 
 /// A subtree while building.
 enum Tmp {
@@ -119,22 +107,6 @@ impl DBox {
             max: self.max.max(o.max),
         }
     }
-
-    fn of(b: &Aabb) -> DBox {
-        DBox {
-            min: b.min.as_dvec3(),
-            max: b.max.as_dvec3(),
-        }
-    }
-
-    /// Surface area; 0 for the empty box.
-    fn area(&self) -> f64 {
-        if self.min.cmpgt(self.max).any() {
-            return 0.0;
-        }
-        let e = self.max - self.min;
-        2.0 * (e.x * e.y + e.y * e.z + e.z * e.x)
-    }
 }
 
 /// The points where the edges of triangle `v` cross the plane
@@ -188,57 +160,260 @@ fn clip(tri: &Triangle, within: &Aabb, axis: usize, lo: f32, hi: f32) -> Option<
     (b.min.cmple(b.max).all()).then_some(b)
 }
 
-/// The part of `tri` in each slab `[p[k], p[k + 1]]`, `k` in `k0..=k1`,
-/// as [`clip`] finds it but without rounding to f32: `emit(k, box)` for
-/// each part that meets `within`, in increasing `k`, with the box of the
-/// part intersected with `within`. Rounded outward, each box is `clip`'s
-/// (tested below). Each plane's edge crossings are computed once, not once
-/// for each slab beside it. For the spatial split search, which only
-/// weighs the parts' areas; the split itself clips with [`clip`].
-fn clip_slabs(
-    tri: &Triangle,
-    within: &Aabb,
-    axis: usize,
-    p: &[f32],
-    (k0, k1): (usize, usize),
-    mut emit: impl FnMut(usize, DBox),
-) {
-    let v = vertices(tri);
-    let within = DBox::of(within);
-    let mut below = crossings(&v, axis, p[k0] as f64);
-    for k in k0..=k1 {
-        let (lo, hi) = (p[k] as f64, p[k + 1] as f64);
-        let above = crossings(&v, axis, hi);
-        let b = with_vertices(below.union(above), &v, axis, lo, hi);
-        below = above;
-        if b.min.x > b.max.x {
-            continue;
-        }
-        let o = DBox {
-            min: b.min.max(within.min),
-            max: b.max.min(within.max),
+#[derive(Clone, Copy)]
+struct ObjectSplit {
+    split: Split,
+    /// The area of the intersection of the two children's boxes.
+    overlap: f64,
+}
+
+/// The box and the centroids' box of `refs`, corners in SSE registers.
+fn bounds_of(refs: &[PrimRef]) -> (Aabb, Aabb) {
+    let (mut lo, mut hi) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
+    let (mut clo, mut chi) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
+    for r in refs {
+        lo = lo.min(r.min());
+        hi = hi.max(r.max());
+        let c = r.centroid();
+        clo = clo.min(c);
+        chi = chi.max(c);
+    }
+    (
+        Aabb::new(lo.into(), hi.into()),
+        Aabb::new(clo.into(), chi.into()),
+    )
+}
+
+/// The cheapest binned object split of `refs` (§3): the SAH builder's
+/// search ([`best_split`]), with the overlap of the two children's boxes.
+fn object_split(
+    refs: &[PrimRef],
+    node: &Aabb,
+    centroids: &Aabb,
+    nbins: usize,
+) -> Option<ObjectSplit> {
+    let split = best_split(refs, node.area(), centroids, nbins)?;
+    let (mut l, mut r) = (FBox::EMPTY, FBox::EMPTY);
+    for p in refs {
+        let side = if split.goes_left(p.centroid()) {
+            &mut l
+        } else {
+            &mut r
         };
-        if o.min.cmple(o.max).all() {
-            emit(k, o);
+        side.min = side.min.min(p.min());
+        side.max = side.max.max(p.max());
+    }
+    let o = FBox {
+        min: l.min.max(r.min),
+        max: l.max.min(r.max),
+    };
+    Some(ObjectSplit {
+        split,
+        overlap: o.area(),
+    })
+}
+
+/// A box in f32 SSE registers: the parts of triangles as [`spatial_split`]
+/// bins them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct FBox {
+    min: Vec3A,
+    max: Vec3A,
+}
+
+impl FBox {
+    const EMPTY: FBox = FBox {
+        min: Vec3A::INFINITY,
+        max: Vec3A::NEG_INFINITY,
+    };
+
+    #[inline(always)]
+    fn union(self, o: FBox) -> FBox {
+        FBox {
+            min: self.min.min(o.min),
+            max: self.max.max(o.max),
+        }
+    }
+
+    #[inline(always)]
+    fn intersect(self, o: FBox) -> FBox {
+        FBox {
+            min: self.min.max(o.min),
+            max: self.max.min(o.max),
+        }
+    }
+
+    #[inline(always)]
+    fn is_empty(&self) -> bool {
+        self.min.cmpgt(self.max).any()
+    }
+
+    /// Surface area in f64 (f32 areas overflow at the soups' 1e30 scales);
+    /// 0 for an empty box.
+    fn area(&self) -> f64 {
+        if self.is_empty() {
+            return 0.0;
+        }
+        let e = (self.max - self.min).as_dvec3();
+        2.0 * (e.x * e.y + e.y * e.z + e.z * e.x)
+    }
+}
+
+/// The planes of `nbins` equal bins over `[lo, hi]`: `nbins + 1` values,
+/// the first `lo` and the last `hi`, non-decreasing, with the arithmetic
+/// that finds a coordinate's bin in a step or two.
+struct Planes {
+    p: ArrayVec<f32, { MAX_BINS + 1 }>,
+    lo: f32,
+    /// Bins per unit length.
+    scale: f32,
+}
+
+impl Planes {
+    fn new(lo: f32, hi: f32, nbins: usize) -> Self {
+        let mut p: ArrayVec<f32, { MAX_BINS + 1 }> = (0..=nbins)
+            .map(|k| {
+                let t = k as f64 / nbins as f64;
+                (lo as f64 + (hi as f64 - lo as f64) * t) as f32
+            })
+            .collect();
+        p[0] = lo;
+        p[nbins] = hi;
+        for k in 1..=nbins {
+            p[k] = p[k].max(p[k - 1]).min(hi);
+        }
+        let scale = (nbins as f64 / (hi as f64 - lo as f64)) as f32;
+        Planes { p, lo, scale }
+    }
+
+    fn bins(&self) -> usize {
+        self.p.len() - 1
+    }
+
+    /// A first guess at the bin of `x`, in `0..bins` (NaN gives 0).
+    #[inline(always)]
+    fn guess(&self, x: f32) -> usize {
+        let g = (x - self.lo) * self.scale;
+        if g >= 0.0 {
+            (g as usize).min(self.bins() - 1)
+        } else {
+            0
+        }
+    }
+
+    /// The bins `k0..=k1` whose slabs `[p[k], p[k + 1]]` cover `[a, b]`:
+    /// `k0` the last bin whose lower plane is at or below `a` (0 if none),
+    /// `k1` the first whose upper plane is at or above `b` (the last if
+    /// none), and at least `k0`. The arithmetic guess is corrected against
+    /// the planes themselves, so the span is exact whatever the rounding.
+    #[inline(always)]
+    fn span(&self, a: f32, b: f32) -> (usize, usize) {
+        let (p, last) = (&self.p, self.bins() - 1);
+        let mut k0 = self.guess(a);
+        while k0 > 0 && p[k0] > a {
+            k0 -= 1;
+        }
+        while k0 < last && p[k0 + 1] <= a {
+            k0 += 1;
+        }
+        let mut k1 = self.guess(b);
+        while k1 > 0 && p[k1] >= b {
+            k1 -= 1;
+        }
+        while k1 < last && p[k1 + 1] < b {
+            k1 += 1;
+        }
+        (k0, k1.max(k0))
+    }
+}
+
+/// A triangle's three edges in structure-of-arrays form (one lane per edge,
+/// the fourth lane repeating the first), for clipping against slabs without
+/// a branch: each edge's start and vector per coordinate, and the
+/// reciprocals of the vectors' coordinates.
+struct Edges {
+    start: [Vec4; 3],
+    dir: [Vec4; 3],
+    inv: [Vec4; 3],
+}
+
+impl Edges {
+    #[inline(always)]
+    fn new(v: &[Vec3A; 3]) -> Self {
+        let lanes = |f: &dyn Fn(usize) -> f32| Vec4::new(f(0), f(1), f(2), f(0));
+        let start: [Vec4; 3] = std::array::from_fn(|c| lanes(&|e| v[e][c]));
+        let dir: [Vec4; 3] = std::array::from_fn(|c| lanes(&|e| v[(e + 1) % 3][c] - v[e][c]));
+        // An edge parallel to an axis's planes gets a large finite
+        // reciprocal: its parameters are then ±large (all of it in the slab
+        // or none), where `0 · inf` would give NaN for an edge on a plane.
+        let inv = dir.map(|d| {
+            let inv = Vec4::ONE / d;
+            Vec4::select(inv.abs().cmplt(Vec4::splat(1e30)), inv, Vec4::splat(1e30))
+        });
+        Edges { start, dir, inv }
+    }
+
+    /// The box of the triangle's part in the slab `[lo, hi]` on the axis
+    /// (empty if none), in f32: each edge clipped to the slab by its
+    /// parameter interval, the ends of the pieces that remain being the
+    /// corners of the part (the vertices inside the slab and the edges'
+    /// crossings of its planes).
+    #[inline(always)]
+    fn part(&self, axis: usize, lo: f32, hi: f32) -> FBox {
+        let (s, inv) = (self.start[axis], self.inv[axis]);
+        let tl = (Vec4::splat(lo) - s) * inv;
+        let th = (Vec4::splat(hi) - s) * inv;
+        let t0 = tl.min(th).max(Vec4::ZERO);
+        let t1 = tl.max(th).min(Vec4::ONE);
+        let kept = t0.cmple(t1);
+        let (mut lower, mut upper) = ([Vec4::ZERO; 4], [Vec4::ZERO; 4]);
+        for c in 0..3 {
+            let a = self.start[c] + self.dir[c] * t0;
+            let b = self.start[c] + self.dir[c] * t1;
+            lower[c] = Vec4::select(kept, a.min(b), Vec4::INFINITY);
+            upper[c] = Vec4::select(kept, a.max(b), Vec4::NEG_INFINITY);
+        }
+        lower[3] = lower[2];
+        upper[3] = upper[2];
+        // Transposed, each column holds one edge's corner; the columns'
+        // minimum (maximum) is the box's.
+        let lo4 = Mat4::from_cols(lower[0], lower[1], lower[2], lower[3]).transpose();
+        let hi4 = Mat4::from_cols(upper[0], upper[1], upper[2], upper[3]).transpose();
+        let min = lo4.x_axis.min(lo4.y_axis).min(lo4.z_axis.min(lo4.w_axis));
+        let max = hi4.x_axis.max(hi4.y_axis).max(hi4.z_axis.max(hi4.w_axis));
+        FBox {
+            min: Vec3A::from_vec4(min),
+            max: Vec3A::from_vec4(max),
         }
     }
 }
 
-#[derive(Clone, Copy)]
-struct ObjectSplit {
+/// The part of triangle `v` in each slab `[p[k], p[k + 1]]`, `k` in
+/// `k0..=k1`, intersected with `within`: `emit(k, box)` for each part that
+/// is not empty, in increasing `k`. In f32 ([`Edges::part`]): the split
+/// search's estimate of the boxes that [`clip`] computes exactly and rounds
+/// outward for the split itself (compared in the tests).
+fn clip_slabs(
+    edges: &Edges,
+    within: FBox,
     axis: usize,
-    /// References whose centroid bin is below `bin` go left.
-    bin: usize,
-    min: f32,
-    scale: f32,
-    cost: f64,
-    overlap: f64,
-}
-
-impl ObjectSplit {
-    fn goes_left(&self, r: &Ref, nbins: usize) -> bool {
-        let k = ((r.centroid()[self.axis] - self.min) * self.scale) as isize;
-        (k.clamp(0, nbins as isize - 1) as usize) < self.bin
+    p: &[f32],
+    (k0, k1): (usize, usize),
+    mut emit: impl FnMut(usize, FBox),
+) {
+    let on_axis = BVec3A::from_array(std::array::from_fn(|a| a == axis));
+    for k in k0..=k1 {
+        let (lo, hi) = (p[k], p[k + 1]);
+        // The slab's bounds on the axis, by a lane mask: a write to one
+        // lane by index went through memory and stalled the box's reload.
+        let slab = FBox {
+            min: Vec3A::select(on_axis, Vec3A::splat(lo), Vec3A::NEG_INFINITY),
+            max: Vec3A::select(on_axis, Vec3A::splat(hi), Vec3A::INFINITY),
+        };
+        let o = edges.part(axis, lo, hi).intersect(within).intersect(slab);
+        if !o.is_empty() {
+            emit(k, o);
+        }
     }
 }
 
@@ -253,128 +428,130 @@ struct SpatialSplit {
     added: usize,
 }
 
-/// The cheapest binned object split of `refs` (§3).
-fn object_split(refs: &[Ref], area_node: f64, nbins: usize) -> Option<ObjectSplit> {
-    let cb = refs.iter().fold(Aabb::EMPTY, |b, r| b.grow(r.centroid()));
-    let extent = cb.extent();
-    let mut best: Option<ObjectSplit> = None;
-    // Fixed arrays: no allocation per node.
-    let mut bins = [(Aabb::EMPTY, 0u32); MAX_BINS];
-    let mut right = [(0.0f64, Aabb::EMPTY); MAX_BINS];
-    let (bins, right) = (&mut bins[..nbins], &mut right[..nbins]);
-    for axis in 0..3 {
-        if extent[axis] <= 0.0 || !extent[axis].is_finite() {
-            continue;
-        }
-        let (min, scale) = (cb.min[axis], nbins as f32 * (1.0 - 1e-6) / extent[axis]);
-        bins.fill((Aabb::EMPTY, 0));
-        for r in refs {
-            let k = ((r.centroid()[axis] - min) * scale) as isize;
-            let bin = &mut bins[k.clamp(0, nbins as isize - 1) as usize];
-            bin.0 = bin.0.union(r.bounds);
-            bin.1 += 1;
-        }
-        let (mut acc, mut n) = (Aabb::EMPTY, 0u32);
-        for k in (1..nbins).rev() {
-            acc = acc.union(bins[k].0);
-            n += bins[k].1;
-            right[k] = (area(&acc) * n as f64, acc);
-        }
-        let (mut acc, mut n) = (Aabb::EMPTY, 0u32);
-        for k in 1..nbins {
-            acc = acc.union(bins[k - 1].0);
-            n += bins[k - 1].1;
-            if n == 0 || n as usize == refs.len() {
-                continue;
-            }
-            let cost = 1.0 + (area(&acc) * n as f64 + right[k].0) / area_node;
-            if best.is_none_or(|b| cost < b.cost) {
-                best = Some(ObjectSplit {
-                    axis,
-                    bin: k,
-                    min,
-                    scale,
-                    cost,
-                    overlap: area(&overlap(&acc, &right[k].1)),
+/// A spatial bin: the box of the parts of triangles in it, and how many
+/// references enter and leave the axis's bins there.
+#[derive(Clone, Copy)]
+struct SpatialBin {
+    parts: FBox,
+    entries: u32,
+    exits: u32,
+}
+
+const EMPTY_SPATIAL_BIN: SpatialBin = SpatialBin {
+    parts: FBox::EMPTY,
+    entries: 0,
+    exits: 0,
+};
+
+/// Spatial bins per axis: `bins[m]` for the axis `axes[m]`.
+type AxisBins = [[SpatialBin; MAX_BINS]; 3];
+
+/// Bins `refs` into `bins` along each of `axes`: a reference inside one bin
+/// of an axis adds its box there, one spanning several is clipped against
+/// their planes ([`clip_slabs`]); each counts as entering its first bin and
+/// leaving its last.
+#[inline(always)]
+fn bin_refs(
+    triangles: &[Triangle],
+    refs: &[PrimRef],
+    axes: &[(usize, Planes)],
+    bins: &mut AxisBins,
+) {
+    for r in refs {
+        let within = FBox {
+            min: r.lower(),
+            max: r.max(),
+        };
+        let mut edges: Option<Edges> = None;
+        for (m, (axis, planes)) in axes.iter().enumerate() {
+            let axis = *axis;
+            let (k0, k1) = planes.span(within.min[axis], within.max[axis]);
+            let bins = &mut bins[m];
+            if k0 == k1 {
+                bins[k0].parts = bins[k0].parts.union(within);
+            } else {
+                let edges = edges.get_or_insert_with(|| {
+                    let t = &triangles[r.id() as usize];
+                    Edges::new(&[t.a.into(), t.b.into(), t.c.into()])
+                });
+                clip_slabs(edges, within, axis, &planes.p, (k0, k1), |k, b| {
+                    bins[k].parts = bins[k].parts.union(b);
                 });
             }
+            bins[k0].entries += 1;
+            bins[k1].exits += 1;
         }
     }
-    best
 }
 
-/// The planes of `nbins` equal bins over `[lo, hi]`: `nbins + 1` values,
-/// the first `lo` and the last `hi`, non-decreasing.
-fn planes(lo: f32, hi: f32, nbins: usize) -> ArrayVec<f32, { MAX_BINS + 1 }> {
-    let mut p: ArrayVec<f32, { MAX_BINS + 1 }> = (0..=nbins)
-        .map(|k| {
-            let t = k as f64 / nbins as f64;
-            (lo as f64 + (hi as f64 - lo as f64) * t) as f32
-        })
-        .collect();
-    p[0] = lo;
-    p[nbins] = hi;
-    for k in 1..=nbins {
-        p[k] = p[k].max(p[k - 1]).min(hi);
+/// [`bin_refs`] compiled for AVX2 and FMA (three-operand instructions and
+/// blends; the same operations in the same order, so the same bins).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn bin_refs_avx2(
+    triangles: &[Triangle],
+    refs: &[PrimRef],
+    axes: &[(usize, Planes)],
+    bins: &mut AxisBins,
+) {
+    bin_refs(triangles, refs, axes, bins)
+}
+
+/// [`bin_refs`] on SIMD path `path` (the portable code where this build or
+/// processor lacks it). Every path gives the same bins bit for bit.
+fn bin_on(
+    path: SimdPath,
+    triangles: &[Triangle],
+    refs: &[PrimRef],
+    axes: &[(usize, Planes)],
+    bins: &mut AxisBins,
+) {
+    #[cfg(target_arch = "x86_64")]
+    if matches!(path, SimdPath::Avx2 | SimdPath::Avx512) && path.supported() {
+        // SAFETY: the processor has AVX2 and FMA (`path.supported()`).
+        return unsafe { bin_refs_avx2(triangles, refs, axes, bins) };
     }
-    p
-}
-
-/// The bins `k0..=k1` whose slabs `[p[k], p[k + 1]]` cover `[a, b]`.
-fn bin_span(p: &[f32], a: f32, b: f32) -> (usize, usize) {
-    let nbins = p.len() - 1;
-    // Last plane at or below a; first plane at or above b.
-    let k0 = p[..nbins].partition_point(|&x| x <= a).saturating_sub(1);
-    let k1 = p[1..].partition_point(|&x| x < b).min(nbins - 1);
-    (k0, k1.max(k0))
+    let _ = path;
+    bin_refs(triangles, refs, axes, bins)
 }
 
 /// The cheapest binned spatial split of `refs` (§4.1) that adds at most
 /// `budget` references and leaves each side fewer references than the node.
+/// One pass over the references bins all three axes: a reference inside one
+/// bin of an axis adds its box there, one spanning several is clipped
+/// against their planes ([`clip_slabs`]).
 fn spatial_split(
     ctx: &Ctx,
-    refs: &[Ref],
+    refs: &[PrimRef],
     node: &Aabb,
     area_node: f64,
     budget: usize,
 ) -> Option<SpatialSplit> {
     let nbins = ctx.opts.spatial_bins;
     let n = refs.len();
+    let axes: ArrayVec<(usize, Planes), 3> = (0..3)
+        .filter_map(|axis| {
+            let (lo, hi) = (node.min[axis], node.max[axis]);
+            (hi > lo && (hi - lo).is_finite()).then(|| (axis, Planes::new(lo, hi, nbins)))
+        })
+        .collect();
+    let mut bins = [[EMPTY_SPATIAL_BIN; MAX_BINS]; 3];
+    bin_on(simd::active(), ctx.triangles, refs, &axes, &mut bins);
     let mut best: Option<SpatialSplit> = None;
-    // Per bin: box of the parts, entries, exits.
-    let mut bins = [(DBox::EMPTY, 0u32, 0u32); MAX_BINS];
     let mut right = [(0.0f64, 0u32); MAX_BINS];
-    let (bins, right) = (&mut bins[..nbins], &mut right[..nbins]);
-    for axis in 0..3 {
+    for (m, (axis, planes)) in axes.iter().enumerate() {
+        let (axis, p, bins) = (*axis, &planes.p, &bins[m]);
         let (lo, hi) = (node.min[axis], node.max[axis]);
-        if hi <= lo || !(hi - lo).is_finite() {
-            continue;
-        }
-        let p = planes(lo, hi, nbins);
-        bins.fill((DBox::EMPTY, 0, 0));
-        for r in refs {
-            let (k0, k1) = bin_span(&p, r.bounds.min[axis], r.bounds.max[axis]);
-            if k0 == k1 {
-                bins[k0].0 = bins[k0].0.union(DBox::of(&r.bounds));
-            } else {
-                let tri = &ctx.triangles[r.prim as usize];
-                clip_slabs(tri, &r.bounds, axis, &p, (k0, k1), |k, b| {
-                    bins[k].0 = bins[k].0.union(b);
-                });
-            }
-            bins[k0].1 += 1;
-            bins[k1].2 += 1;
-        }
-        let (mut acc, mut m) = (DBox::EMPTY, 0u32);
+        let (mut acc, mut exits) = (FBox::EMPTY, 0u32);
         for k in (1..nbins).rev() {
-            acc = acc.union(bins[k].0);
-            m += bins[k].2;
-            right[k] = (acc.area(), m);
+            acc = acc.union(bins[k].parts);
+            exits += bins[k].exits;
+            right[k] = (acc.area(), exits);
         }
-        let (mut acc, mut nl) = (DBox::EMPTY, 0u32);
+        let (mut acc, mut nl) = (FBox::EMPTY, 0u32);
         for k in 1..nbins {
-            acc = acc.union(bins[k - 1].0);
-            nl += bins[k - 1].1;
+            acc = acc.union(bins[k - 1].parts);
+            nl += bins[k - 1].entries;
             let (ar, nr) = right[k];
             let (nl, nr) = (nl as usize, nr as usize);
             if nl == 0 || nr == 0 || nl >= n || nr >= n || nl + nr - n > budget {
@@ -413,14 +590,11 @@ pub(super) fn build(
         };
         return (vec![leaf], Vec::new());
     }
-    let refs: Vec<Ref> = live
+    let refs: Vec<PrimRef> = live
         .iter()
-        .map(|&prim| Ref {
-            bounds: triangles[prim as usize].bounds(),
-            prim,
-        })
+        .map(|&prim| PrimRef::new(&triangles[prim as usize].bounds(), prim))
         .collect();
-    let root = refs.iter().fold(Aabb::EMPTY, |b, r| b.union(r.bounds));
+    let (root, _) = bounds_of(&refs);
     let ctx = Ctx {
         triangles,
         opts,
@@ -435,32 +609,39 @@ pub(super) fn build(
     (nodes, prims)
 }
 
-fn subtree(ctx: &Ctx, mut refs: Vec<Ref>, depth: u32, budget: usize) -> Tmp {
+fn subtree(ctx: &Ctx, mut refs: Vec<PrimRef>, depth: u32, budget: usize) -> Tmp {
     let n = refs.len();
-    let bounds = refs.iter().fold(Aabb::EMPTY, |b, r| b.union(r.bounds));
-    let leaf = |refs: Vec<Ref>| Tmp::Leaf(refs.iter().map(|r| r.prim).collect(), bounds);
+    let (bounds, centroids) = bounds_of(&refs);
+    let leaf = |refs: Vec<PrimRef>| Tmp::Leaf(refs.iter().map(PrimRef::id).collect(), bounds);
     let max_leaf = ctx.opts.max_leaf_size;
     if n == 1 {
         return leaf(refs);
     }
     let area_node = area(&bounds);
     let nbins = ctx.opts.bins;
-    let use_sah = depth < SAH_MAX_DEPTH && area_node > 0.0 && area_node.is_finite();
+    // The object split's search weighs areas in f32, as the SAH builder's.
+    let use_sah = depth < SAH_MAX_DEPTH && area_node > 0.0 && bounds.area().is_finite();
     let object = if use_sah {
-        object_split(&refs, area_node, nbins)
+        object_split(&refs, &bounds, &centroids, nbins)
     } else {
         None
     };
     let spatial = match object {
-        Some(o) if o.overlap > ctx.min_overlap && budget > 0 => {
+        Some(o)
+            if o.overlap > ctx.min_overlap
+                && o.overlap > ctx.opts.spatial_min_node_overlap as f64 * area_node
+                && budget > 0
+                && n > ctx.opts.spatial_min_refs =>
+        {
             spatial_split(ctx, &refs, &bounds, area_node, budget)
         }
         None if use_sah && budget > 0 => spatial_split(ctx, &refs, &bounds, area_node, budget),
         _ => None,
     };
+    let object_cost = |o: ObjectSplit| o.split.cost as f64;
     let best_cost = match (object, spatial) {
-        (Some(o), Some(s)) => o.cost.min(s.cost),
-        (Some(o), None) => o.cost,
+        (Some(o), Some(s)) => object_cost(o).min(s.cost),
+        (Some(o), None) => object_cost(o),
         (None, Some(s)) => s.cost,
         (None, None) => f64::INFINITY,
     };
@@ -468,24 +649,24 @@ fn subtree(ctx: &Ctx, mut refs: Vec<Ref>, depth: u32, budget: usize) -> Tmp {
         return leaf(refs);
     }
     let (left, right, axis, added) = match (object, spatial) {
-        (_, Some(s)) if object.is_none_or(|o| s.cost < o.cost) => {
+        (_, Some(s)) if object.is_none_or(|o| s.cost < object_cost(o)) => {
             let (l, r) = split_spatial(ctx, &refs, s);
             let added = (l.len() + r.len()).saturating_sub(n);
             debug_assert!(added <= s.added);
             (l, r, s.axis, added)
         }
         (Some(o), _) => {
-            let (l, r): (Vec<Ref>, Vec<Ref>) =
-                refs.into_iter().partition(|r| o.goes_left(r, nbins));
-            (l, r, o.axis, 0)
+            let (l, r): (Vec<PrimRef>, Vec<PrimRef>) = refs
+                .into_iter()
+                .partition(|r| o.split.goes_left(r.centroid()));
+            (l, r, o.split.map.axis, 0)
         }
         (None, _) => {
             // Median along the axis of largest centroid spread; ties by
             // triangle (a node never holds one triangle twice).
-            let cb = refs.iter().fold(Aabb::EMPTY, |b, r| b.grow(r.centroid()));
-            let axis = cb.largest_axis();
+            let axis = centroids.largest_axis();
             let mid = n / 2;
-            let key = |r: &Ref| (r.centroid()[axis], r.prim);
+            let key = |r: &PrimRef| (r.centroid()[axis], r.id());
             refs.select_nth_unstable_by(mid, |a, b| key(a).partial_cmp(&key(b)).unwrap());
             let r = refs.split_off(mid);
             (refs, r, axis, 0)
@@ -517,25 +698,26 @@ fn subtree(ctx: &Ctx, mut refs: Vec<Ref>, depth: u32, budget: usize) -> Tmp {
 /// Splits `refs` at the plane of `s`: references on one side go there, the
 /// references the plane cuts go to both sides with their clipped boxes (to
 /// one side when the triangle's part on the other is empty).
-fn split_spatial(ctx: &Ctx, refs: &[Ref], s: SpatialSplit) -> (Vec<Ref>, Vec<Ref>) {
+fn split_spatial(ctx: &Ctx, refs: &[PrimRef], s: SpatialSplit) -> (Vec<PrimRef>, Vec<PrimRef>) {
     let (mut l, mut r) = (Vec::new(), Vec::new());
     for x in refs {
-        let (a, b) = (x.bounds.min[s.axis], x.bounds.max[s.axis]);
+        let (a, b) = (x.min()[s.axis], x.max()[s.axis]);
         if b <= s.pos {
             l.push(*x);
         } else if a >= s.pos {
             r.push(*x);
         } else {
-            let tri = &ctx.triangles[x.prim as usize];
-            let lb = clip(tri, &x.bounds, s.axis, a, s.pos);
-            let rb = clip(tri, &x.bounds, s.axis, s.pos, b);
+            let tri = &ctx.triangles[x.id() as usize];
+            let bounds = x.bounds();
+            let lb = clip(tri, &bounds, s.axis, a, s.pos);
+            let rb = clip(tri, &bounds, s.axis, s.pos, b);
             match (lb, rb) {
                 (Some(lb), Some(rb)) => {
-                    l.push(Ref { bounds: lb, ..*x });
-                    r.push(Ref { bounds: rb, ..*x });
+                    l.push(PrimRef::new(&lb, x.id()));
+                    r.push(PrimRef::new(&rb, x.id()));
                 }
-                (Some(lb), None) => l.push(Ref { bounds: lb, ..*x }),
-                (None, Some(rb)) => r.push(Ref { bounds: rb, ..*x }),
+                (Some(lb), None) => l.push(PrimRef::new(&lb, x.id())),
+                (None, Some(rb)) => r.push(PrimRef::new(&rb, x.id())),
                 // Unreachable for a triangle whose part the box holds; keep
                 // the reference whole rather than lose it.
                 (None, None) => l.push(*x),
@@ -607,11 +789,13 @@ mod tests {
         assert!(clip(&t, &t.bounds(), 0, 3.0, 3.0).is_some());
     }
 
-    /// `clip_slabs` gives, slab by slab, the boxes `clip` gives: random
-    /// triangles, references already clipped, planes through vertices and
-    /// repeated planes.
+    /// `clip_slabs`, the split search's f32 estimate, gives slab by slab
+    /// the boxes `clip` computes exactly, to within f32 rounding of the
+    /// triangle's extent: random triangles, references already clipped,
+    /// planes through vertices and repeated planes. A slab only one of the
+    /// two finds holds a part that merely touches it.
     #[test]
-    fn slab_clipping_equals_clipping_each_slab() {
+    fn slab_clipping_estimates_clipping_each_slab() {
         let mut rng = crate::rng::Pcg32::new(3, 9);
         let mut parts = 0;
         for case in 0..3000 {
@@ -622,8 +806,14 @@ mod tests {
                     rng.range(-4.0, 4.0),
                 )
             };
-            let t = Triangle::new(q(), q(), q());
             let axis = case % 3;
+            let (a, mut b, c) = (q(), q(), q());
+            if case % 7 == 0 {
+                // An edge parallel to the planes (on one of them when a
+                // plane is moved onto vertex `a` below).
+                b[axis] = a[axis];
+            }
+            let t = Triangle::new(a, b, c);
             // A reference: the triangle's box, or a part of it.
             let mut within = t.bounds();
             if case % 2 == 0 {
@@ -631,46 +821,70 @@ mod tests {
                 within.min[axis] = cut;
             }
             let (lo, hi) = (within.min[axis], within.max[axis]);
-            let mut p = planes(lo, hi, [2, 3, 8, 32][case % 4]);
+            let mut planes = Planes::new(lo, hi, [2, 3, 8, 32][case % 4]);
             if case % 5 == 0 {
                 // A plane through a vertex.
-                let k = p.len() / 2;
-                p[k] = t.a[axis].clamp(p[k - 1], p[k + 1]);
+                let k = planes.p.len() / 2;
+                planes.p[k] = t.a[axis].clamp(planes.p[k - 1], planes.p[k + 1]);
             }
-            let (k0, k1) = bin_span(&p, lo, hi);
+            let p = &planes.p;
+            let span = planes.span(lo, hi);
+            let v = [t.a.into(), t.b.into(), t.c.into()];
+            let fwithin = FBox {
+                min: within.min.into(),
+                max: within.max.into(),
+            };
             let mut got = Vec::new();
-            clip_slabs(&t, &within, axis, &p, (k0, k1), |k, b| got.push((k, b)));
-            let want: Vec<(usize, Aabb)> = (k0..=k1)
+            clip_slabs(&Edges::new(&v), fwithin, axis, p, span, |k, b| {
+                got.push((k, b))
+            });
+            let want: Vec<(usize, Aabb)> = (span.0..=span.1)
                 .filter_map(|k| clip(&t, &within, axis, p[k], p[k + 1]).map(|b| (k, b)))
                 .collect();
-            // Rounded outward, each f64 part is `clip`'s box. `clip` may
-            // keep a part that touches `within` only after rounding.
-            let rounded = |b: &DBox| Aabb {
-                min: Vec3::new(down(b.min.x), down(b.min.y), down(b.min.z)),
-                max: Vec3::new(up(b.max.x), up(b.max.y), up(b.max.z)),
-            };
-            let mut w = want.iter().peekable();
-            for (k, b) in &got {
-                while w.peek().is_some_and(|(kw, _)| kw < k) {
-                    let (kw, bw) = w.next().unwrap();
-                    let touching = bw.min.cmpeq(bw.max).any();
-                    assert!(touching, "case {case}: slab {kw} only from clip: {bw:?}");
+            let tol = 1e-5 * t.bounds().extent().max_element();
+            let thin = |b: &Aabb| (b.max - b.min).min_element() <= tol;
+            let (mut g, mut w) = (got.iter().peekable(), want.iter().peekable());
+            loop {
+                match (g.peek(), w.peek()) {
+                    (Some((kg, bg)), Some((kw, bw))) if kg == kw => {
+                        let bg = Aabb::new(bg.min.into(), bg.max.into());
+                        let near = (bg.min - bw.min).abs().max_element() <= tol
+                            && (bg.max - bw.max).abs().max_element() <= tol;
+                        assert!(near, "case {case}, slab {kg}: {bg:?} against {bw:?}");
+                        g.next();
+                        w.next();
+                    }
+                    (Some((kg, bg)), w_next) if w_next.is_none_or(|(kw, _)| kg < kw) => {
+                        let bg = Aabb::new(bg.min.into(), bg.max.into());
+                        assert!(thin(&bg), "case {case}: slab {kg} only estimated: {bg:?}");
+                        g.next();
+                    }
+                    (_, Some((kw, bw))) => {
+                        assert!(thin(bw), "case {case}: slab {kw} only from clip: {bw:?}");
+                        w.next();
+                    }
+                    (None, None) => break,
+                    (Some(_), None) => unreachable!(),
                 }
-                let (kw, bw) = w.next().expect("a part clip has too");
-                assert_eq!((kw, bw), (k, &rounded(b)), "case {case}");
-            }
-            for (kw, bw) in w {
-                let touching = bw.min.cmpeq(bw.max).any();
-                assert!(touching, "case {case}: slab {kw} only from clip: {bw:?}");
             }
             parts += got.len();
         }
         assert!(parts > 10_000, "{parts}");
     }
 
+    /// The bins a span covers, by binary search over the planes: the
+    /// definition [`Planes::span`] computes from its arithmetic guess.
+    fn span_by_search(p: &[f32], a: f32, b: f32) -> (usize, usize) {
+        let nbins = p.len() - 1;
+        // Last plane at or below a; first plane at or above b.
+        let k0 = p[..nbins].partition_point(|&x| x <= a).saturating_sub(1);
+        let k1 = p[1..].partition_point(|&x| x < b).min(nbins - 1);
+        (k0, k1.max(k0))
+    }
+
     #[test]
     fn bin_spans_cover_the_interval() {
-        let p = planes(0.0, 1.0, 8);
+        let planes = Planes::new(0.0, 1.0, 8);
         for &(a, b) in &[
             (0.0, 1.0),
             (0.1, 0.2),
@@ -678,8 +892,88 @@ mod tests {
             (0.3, 0.3),
             (1.0, 1.0),
         ] {
-            let (k0, k1) = bin_span(&p, a, b);
+            let (k0, k1) = planes.span(a, b);
+            let p = &planes.p;
             assert!(p[k0] <= a && p[k1 + 1] >= b, "{a} {b}: {k0} {k1}");
+            assert_eq!((k0, k1), span_by_search(p, a, b));
+        }
+    }
+
+    /// The arithmetic span equals the binary search's on random intervals
+    /// of random, tiny, huge and offset ranges, inside, on and beyond the
+    /// planes (and NaN).
+    /// Every SIMD path bins the same references into the same bins, bit
+    /// for bit (the tree must not depend on the processor).
+    #[test]
+    fn every_simd_path_bins_alike() {
+        let mut rng = crate::rng::Pcg32::new(17, 4);
+        let mut q = |s: f32| Vec3::new(rng.range(-s, s), rng.range(-s, s), rng.range(-s, s));
+        let triangles: Vec<Triangle> = (0..2000)
+            .map(|i| {
+                let c = q(10.0);
+                let s = if i % 7 == 0 { 6.0 } else { 0.8 };
+                Triangle::new(c + q(s), c + q(s), c + q(s))
+            })
+            .collect();
+        let refs: Vec<PrimRef> = triangles
+            .iter()
+            .enumerate()
+            .map(|(i, t)| PrimRef::new(&t.bounds(), i as u32))
+            .collect();
+        let (node, _) = bounds_of(&refs);
+        let axes: Vec<(usize, Planes)> = (0..3)
+            .map(|a| (a, Planes::new(node.min[a], node.max[a], 16)))
+            .collect();
+        let bits = |bins: &AxisBins| -> Vec<u32> {
+            bins.iter()
+                .flatten()
+                .flat_map(|b| {
+                    let (lo, hi) = (b.parts.min.to_array(), b.parts.max.to_array());
+                    lo.into_iter()
+                        .chain(hi)
+                        .map(f32::to_bits)
+                        .chain([b.entries, b.exits])
+                })
+                .collect()
+        };
+        let mut want = [[EMPTY_SPATIAL_BIN; MAX_BINS]; 3];
+        bin_on(SimdPath::Portable, &triangles, &refs, &axes, &mut want);
+        let parts: u32 = want.iter().flatten().map(|b| b.entries).sum();
+        assert_eq!(parts, 3 * 2000);
+        for path in SimdPath::ALL.into_iter().filter(|p| p.supported()) {
+            let mut got = [[EMPTY_SPATIAL_BIN; MAX_BINS]; 3];
+            bin_on(path, &triangles, &refs, &axes, &mut got);
+            assert!(bits(&got) == bits(&want), "{path}");
+        }
+    }
+
+    #[test]
+    fn arithmetic_spans_equal_the_search() {
+        let mut rng = crate::rng::Pcg32::new(17, 2);
+        for case in 0..20_000 {
+            let lo = [0.0, -3.0, 1e6, 1e-30, -7e20][case % 5] * rng.range(0.5, 2.0);
+            let width = [1.0, 1e-6, 1e4, 3e-38, 1e21][(case / 5) % 5] * rng.range(0.1, 3.0);
+            let hi = lo + width;
+            // (lo + width rounds to lo where the width is below its ulp.)
+            if hi <= lo {
+                continue;
+            }
+            let nbins = [2, 3, 16, 31, 64][(case / 25) % 5];
+            let planes = Planes::new(lo, hi, nbins);
+            let pick = |rng: &mut crate::rng::Pcg32| match rng.below(6) {
+                0 => planes.p[rng.below(nbins as u32 + 1) as usize],
+                1 => lo - width * rng.next_f32(),
+                2 => hi + width * rng.next_f32(),
+                3 => f32::NAN,
+                _ => lo + width * rng.next_f32(),
+            };
+            let (x, y) = (pick(&mut rng), pick(&mut rng));
+            let (a, b) = if x <= y { (x, y) } else { (y, x) };
+            assert_eq!(
+                planes.span(a, b),
+                span_by_search(&planes.p, a, b),
+                "case {case}: [{a}, {b}] over [{lo}, {hi}] in {nbins}"
+            );
         }
     }
 }

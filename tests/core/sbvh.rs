@@ -212,6 +212,65 @@ fn the_reference_cap_bounds_growth() {
     assert_eq!(bvh.prims.len(), tris.len());
 }
 
+/// The triangles listed in the leaves under node `id`, with repeats.
+fn subtree_refs(bvh: &Bvh, id: u32, out: &mut Vec<u32>) {
+    match bvh.nodes[id as usize].kind {
+        NodeKind::Leaf { first, count } => {
+            out.extend_from_slice(&bvh.prims[first as usize..(first + count) as usize])
+        }
+        NodeKind::Inner { left, right, .. } => {
+            subtree_refs(bvh, left, out);
+            subtree_refs(bvh, right, out);
+        }
+    }
+}
+
+#[test]
+fn spatial_splits_only_where_the_options_allow() {
+    let tris = long_triangles(3000, 5);
+    // A node of at most `min` references is split by objects only, so no
+    // triangle is listed under both of its children; larger nodes do list
+    // some under both (the test can fail).
+    let min = 40;
+    let mut opts = BuildOptions::sbvh();
+    opts.spatial_min_refs = min;
+    let bvh = Bvh::build(&tris, &opts);
+    bvh.validate(&tris).unwrap();
+    let (mut small, mut shared_above) = (0, 0);
+    for n in &bvh.nodes {
+        if let NodeKind::Inner { left, right, .. } = n.kind {
+            let (mut l, mut r) = (Vec::new(), Vec::new());
+            subtree_refs(&bvh, left, &mut l);
+            subtree_refs(&bvh, right, &mut r);
+            l.sort_unstable();
+            let shared = r.iter().filter(|t| l.binary_search(t).is_ok()).count();
+            if l.len() + r.len() <= min {
+                small += 1;
+                assert_eq!(shared, 0, "a node of {} references", l.len() + r.len());
+            } else if shared > 0 {
+                shared_above += 1;
+            }
+        }
+    }
+    assert!(small > 100 && shared_above > 10, "{small} {shared_above}");
+    // No node large enough, or no overlap large enough against the node's
+    // own surface: no spatial split.
+    for (min, node_overlap) in [(tris.len(), 0.0), (0, 1e9)] {
+        let mut opts = BuildOptions::sbvh();
+        opts.spatial_min_refs = min;
+        opts.spatial_min_node_overlap = node_overlap;
+        let bvh = Bvh::build(&tris, &opts);
+        assert_eq!(bvh.prims.len(), tris.len(), "{min} {node_overlap}");
+    }
+    // A node-relative threshold between the two keeps some spatial splits
+    // and rules out others.
+    let all = duplicates(&Bvh::build(&tris, &BuildOptions::sbvh()), tris.len());
+    let mut opts = BuildOptions::sbvh();
+    opts.spatial_min_node_overlap = 0.5;
+    let some = duplicates(&Bvh::build(&tris, &opts), tris.len());
+    assert!(some > 0 && some < all, "{some} of {all}");
+}
+
 #[test]
 fn spatial_split_trees_are_deterministic_across_thread_counts() {
     let scene = Scene::builtin("atrium:60000").unwrap();
