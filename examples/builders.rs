@@ -77,21 +77,25 @@ const VARIANTS: [Variant; 5] = [
     },
 ];
 
+/// `RAYTREE_SBVH_*`'s value, if set; exits naming the variable if it does
+/// not parse.
+fn env_option<T: std::str::FromStr>(name: &str) -> Option<T> {
+    let v = std::env::var(name).ok()?;
+    Some(v.parse().unwrap_or_else(|_| {
+        eprintln!("{name}: cannot read {v:?} as a number");
+        std::process::exit(2);
+    }))
+}
+
 fn build(v: &Variant, tris: &[Triangle]) -> (Bvh, f64) {
-    let t = Instant::now();
     let mut opts = BuildOptions::new(v.builder);
-    if let Some(f) = std::env::var("RAYTREE_SBVH_NODE_OVERLAP")
-        .ok()
-        .and_then(|s| s.parse().ok())
-    {
+    if let Some(f) = env_option("RAYTREE_SBVH_NODE_OVERLAP") {
         opts.spatial_min_node_overlap = f;
     }
-    if let Some(n) = std::env::var("RAYTREE_SBVH_MIN_REFS")
-        .ok()
-        .and_then(|s| s.parse().ok())
-    {
+    if let Some(n) = env_option("RAYTREE_SBVH_MIN_REFS") {
         opts.spatial_min_refs = n;
     }
+    let t = Instant::now();
     let mut bvh = Bvh::build(tris, &opts);
     if v.optimize {
         bvh = bvh.optimize(&OptimizeOptions::default());

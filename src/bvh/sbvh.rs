@@ -340,9 +340,9 @@ struct Edges {
 impl Edges {
     #[inline(always)]
     fn new(v: &[Vec3A; 3]) -> Self {
-        let lanes = |f: &dyn Fn(usize) -> f32| Vec4::new(f(0), f(1), f(2), f(0));
-        let start: [Vec4; 3] = std::array::from_fn(|c| lanes(&|e| v[e][c]));
-        let dir: [Vec4; 3] = std::array::from_fn(|c| lanes(&|e| v[(e + 1) % 3][c] - v[e][c]));
+        let start = [0, 1, 2].map(|c| Vec4::new(v[0][c], v[1][c], v[2][c], v[0][c]));
+        let (e0, e1, e2) = (v[1] - v[0], v[2] - v[1], v[0] - v[2]);
+        let dir = [0, 1, 2].map(|c| Vec4::new(e0[c], e1[c], e2[c], e0[c]));
         // An edge parallel to an axis's planes gets a large finite
         // reciprocal: its parameters are then ±large (all of it in the slab
         // or none), where `0 · inf` would give NaN for an edge on a plane.
@@ -626,17 +626,17 @@ fn subtree(ctx: &Ctx, mut refs: Vec<PrimRef>, depth: u32, budget: usize) -> Tmp 
     } else {
         None
     };
-    let spatial = match object {
-        Some(o)
-            if o.overlap > ctx.min_overlap
-                && o.overlap > ctx.opts.spatial_min_node_overlap as f64 * area_node
-                && budget > 0
-                && n > ctx.opts.spatial_min_refs =>
-        {
-            spatial_split(ctx, &refs, &bounds, area_node, budget)
-        }
-        None if use_sah && budget > 0 => spatial_split(ctx, &refs, &bounds, area_node, budget),
-        _ => None,
+    // Where no object split exists (the centroids coincide), a spatial split
+    // is the alternative to the median split.
+    let may_split = use_sah && budget > 0 && n > ctx.opts.spatial_min_refs;
+    let worth_it = object.is_none_or(|o| {
+        o.overlap > ctx.min_overlap
+            && o.overlap > ctx.opts.spatial_min_node_overlap as f64 * area_node
+    });
+    let spatial = if may_split && worth_it {
+        spatial_split(ctx, &refs, &bounds, area_node, budget)
+    } else {
+        None
     };
     let object_cost = |o: ObjectSplit| o.split.cost as f64;
     let best_cost = match (object, spatial) {
