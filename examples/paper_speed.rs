@@ -5,6 +5,12 @@
 //! `scene` defaults to `../shared/scenes/battlefield.obj`; `scale` divides
 //! the image's width and height (default 2: a quarter of the paper's rays).
 //! Prints each traversal's eye and AO seconds, the fastest of 3 rounds.
+//! With `RAYTREE_PHASED=1`, times instead the whole phased render at the
+//! paper's 800×300 as `bench stackless --preset paper` does (ray making,
+//! shading and the counters-off traversal), fastest of 3; with
+//! `RAYTREE_PHASED=gen`, that render with every AO ray answered a miss
+//! untraced (what the render costs besides the AO traces). The phased
+//! modes run on rayon's pool: `RAYON_NUM_THREADS=1` for one thread.
 
 use raytree::prelude::*;
 use raytree::render::{rayset, AoQuery, AoSettings, Sampling};
@@ -26,6 +32,28 @@ impl WithAccel for Time<'_> {
     }
 }
 
+/// The binary BVH for eye rays only: every AO ray (`tmax` below 1000) a
+/// miss without a trace, so that a phased render times everything but the
+/// AO traces (`RAYTREE_PHASED=gen`).
+struct EyeOnly<'a>(&'a BinaryBvh);
+impl Accel for EyeOnly<'_> {
+    fn name(&self) -> &'static str {
+        "eye-only"
+    }
+    fn bytes(&self) -> usize {
+        0
+    }
+    fn closest_hit<S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
+        if ray.tmax < 1000.0 {
+            return None;
+        }
+        self.0.closest_hit(ray, stats)
+    }
+    fn any_hit<S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
+        self.closest_hit(ray, stats)
+    }
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let spec = args
@@ -43,7 +71,23 @@ fn main() {
         sampling: Sampling::Stratified,
         ..AoSettings::plain(16, 16, Scene::STACKLESS_CHESS_AO_RADIUS)
     };
-    let (eye, aorays) = rayset::ao_workload(&scene, &b, &ao, 800 / scale, 300 / scale);
+    let phased = std::env::var("RAYTREE_PHASED").is_ok_and(|v| v == "1");
+    if std::env::var("RAYTREE_PHASED").is_ok_and(|v| v == "gen") {
+        let e = EyeOnly(&b);
+        for _ in 0..3 {
+            let r = raytree::render::render_ao_phased_uncounted(&e, &scene, &ao, 800, 300);
+            println!(
+                "eye-only       phased eye {:.3} ao {:.3}",
+                r.eye.seconds, r.ao.seconds
+            );
+        }
+        return;
+    }
+    let (eye, aorays) = if phased {
+        (Vec::new(), Vec::new())
+    } else {
+        rayset::ao_workload(&scene, &b, &ao, 800 / scale, 300 / scale)
+    };
     let eye: Vec<Ray> = eye.into_iter().map(|(r, _)| r).collect();
     eprintln!("{} eye rays, {} AO rays", eye.len(), aorays.len());
     let sp = Arc::new(SparseBvh::from_bvh(&bvh, scene.triangles.clone()).unwrap());
@@ -63,6 +107,23 @@ fn main() {
             (name, built)
         })
         .collect();
+    if phased {
+        for (name, built) in &rows {
+            let mut best = (f64::MAX, f64::MAX);
+            for _ in 0..3 {
+                let r = built.render_ao_phased(&scene, &ao, 800, 300, false);
+                if r.eye.seconds + r.ao.seconds < best.0 + best.1 {
+                    best = (r.eye.seconds, r.ao.seconds);
+                }
+            }
+            let (te, ta) = best;
+            println!(
+                "{name:14} phased eye {te:.3} ao {ta:.3} total {:.3}",
+                te + ta
+            );
+        }
+        return;
+    }
     let mut best = vec![(f64::MAX, f64::MAX); rows.len()];
     for _ in 0..3 {
         for ((_, built), best) in rows.iter().zip(&mut best) {

@@ -249,8 +249,7 @@ impl BoxRay {
     /// wins) or one ulp before it, can be culled against that distance.
     #[inline(always)]
     pub fn test(&self, b: &[f32; 6], tmin: f32, tmax: f32) -> f32 {
-        let (tn, tf) = self.slabs(b, tmin);
-        let tf = if tmax < tf { tmax } else { tf };
+        let (tn, tf) = self.slabs(b, tmin, tmax);
         if tn <= tf {
             tn
         } else {
@@ -261,16 +260,18 @@ impl BoxRay {
     /// The interval `(tnear, tfar)` of [`Self::test`]: a hit iff `tnear <= tfar`.
     #[inline(always)]
     pub fn interval(&self, b: &[f32; 6], tmin: f32, tmax: f32) -> (f32, f32) {
-        let (tn, tf) = self.slabs(b, tmin);
-        (tn, if tmax < tf { tmax } else { tf })
+        self.slabs(b, tmin, tmax)
     }
 
-    /// The entry (from `tmin`) and exit of the box's slabs, each plane's
-    /// distance scaled by its role ([`slab_reciprocals`]).
+    /// The entry (from `tmin`) and exit (from `tmax`) of the box's slabs,
+    /// each plane's distance scaled by its role ([`slab_reciprocals`]).
+    /// Both chains start from the ray's interval, so that each is three
+    /// dependent steps long (the exit's was four with `tmax` taken last:
+    /// the same minimum, one step later).
     #[inline(always)]
-    fn slabs(&self, b: &[f32; 6], tmin: f32) -> (f32, f32) {
+    fn slabs(&self, b: &[f32; 6], tmin: f32, tmax: f32) -> (f32, f32) {
         let mut tn = tmin;
-        let mut tf = f32::INFINITY;
+        let mut tf = tmax;
         for a in 0..3 {
             let lo = (b[a] - self.org[a]) * self.inv_lo[a];
             let hi = (b[a + 3] - self.org[a]) * self.inv_hi[a];
@@ -286,11 +287,23 @@ impl BoxRay {
     /// same distances as two calls of `test`, bit for bit.
     #[inline(always)]
     pub fn test_pair(&self, b: &[f32; 12], tmin: f32, tmax: f32) -> [f32; 2] {
-        let t = std::array::from_fn(|a| {
-            let v = Vec4::from_slice(&b[4 * a..4 * a + 4]);
-            (v - self.org4[a]) * self.inv4[a]
-        });
-        self.test_pair_distances(t, tmin, tmax)
+        self.test_pair_distances(self.pair_planes(b), tmin, tmax)
+    }
+
+    /// The plane distances of [`Self::test_pair`]'s two boxes, per axis.
+    #[inline(always)]
+    fn pair_planes(&self, b: &[f32; 12]) -> [Vec4; 3] {
+        std::array::from_fn(|a| self.pair_distances(Vec4::from_slice(&b[4 * a..4 * a + 4]), a))
+    }
+
+    /// [`Self::test_pair`] as a hit mask (bit 0 the first box, bit 1 the
+    /// second) and the entry distances (lanes x and y, meaningful where the
+    /// mask is set): the same decisions, the mask read straight off the
+    /// comparison rather than the distances compared with infinity.
+    #[inline(always)]
+    pub fn test_pair_mask(&self, b: &[f32; 12], tmin: f32, tmax: f32) -> (u32, Vec4) {
+        let (tn, tf) = self.pair_interval(self.pair_planes(b), tmin, tmax);
+        (tn.cmple(tf).bitmask() & 3, tn)
     }
 
     /// The distances `(plane - o) · inv` of two boxes' planes on axis `a`,
@@ -304,18 +317,28 @@ impl BoxRay {
     /// `[lo_0, lo_1, hi_0, hi_1]`), for layouts that reuse some of them.
     #[inline(always)]
     pub fn test_pair_distances(&self, t: [Vec4; 3], tmin: f32, tmax: f32) -> [f32; 2] {
+        let (tn, tf) = self.pair_interval(t, tmin, tmax);
+        let hit = tn.cmple(tf);
+        let t = Vec4::select(hit, tn, Vec4::INFINITY);
+        [t.x, t.y]
+    }
+
+    /// Entries and exits (lanes x, y) of two boxes from their plane
+    /// distances, within `[tmin, tmax]`.
+    #[inline(always)]
+    fn pair_interval(&self, t: [Vec4; 3], tmin: f32, tmax: f32) -> (Vec4, Vec4) {
+        // Both chains start from the ray's interval, so that each is three
+        // dependent steps long (the exit's was four, `tmax` taken last): the
+        // same minimum, the compare after it the same.
         let mut tn = Vec4::splat(tmin);
-        let mut tf = Vec4::INFINITY;
+        let mut tf = Vec4::splat(tmax);
         for (a, t) in t.into_iter().enumerate() {
             // Lanes xy: the near planes, zw: the far planes.
             let t = if self.neg[a] { t.zwxy() } else { t };
             tn = max_keep(t, tn);
             tf = min_keep(t.zwxy(), tf);
         }
-        tf = min_keep(Vec4::splat(tmax), tf);
-        let hit = tn.cmple(tf);
-        let t = Vec4::select(hit, tn, Vec4::INFINITY);
-        [t.x, t.y]
+        (tn, tf)
     }
 }
 
@@ -424,6 +447,7 @@ mod tests {
 
     #[test]
     fn pair_test_equals_two_single_tests() {
+        let mut hits = 0;
         let mut rng = crate::rng::Pcg32::new(1, 2);
         let mut v = |lo: f32, hi: f32| rng.range(lo, hi);
         for i in 0..20000 {
@@ -454,7 +478,19 @@ mod tests {
             let pair = br.test_pair(&soa, r.tmin, r.tmax);
             let single = [br.test(&a0, r.tmin, r.tmax), br.test(&a1, r.tmin, r.tmax)];
             assert_eq!(pair.map(f32::to_bits), single.map(f32::to_bits), "{r:?}");
+            // The mask form: the same hits, the same entries where hit.
+            let (mask, t) = br.test_pair_mask(&soa, r.tmin, r.tmax);
+            for (k, (entry, single)) in [t.x, t.y].into_iter().zip(single).enumerate() {
+                let hit = mask >> k & 1 == 1;
+                assert_eq!(hit, single != f32::INFINITY, "{r:?}");
+                if hit {
+                    assert_eq!(entry.to_bits(), single.to_bits(), "{r:?}");
+                }
+            }
+            hits += mask.count_ones();
         }
+        // Both outcomes occur often enough for the comparison to mean something.
+        assert!(hits > 1000 && hits < 39000, "{hits}");
     }
 
     #[test]

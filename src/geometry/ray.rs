@@ -104,20 +104,29 @@ impl Ray {
     }
 
     /// Four rays from one `origin`, each [`Self::new`]`(origin, d[l], tmin,
-    /// tmax)` bit for bit, with their constants computed in four-lane
-    /// vectors across the rays (three divisions for the reciprocals and
-    /// two for the shears of all four; the third shear constant, `1/dz`, is
-    /// the reciprocal on axis `kz`). Rays
-    /// whose parts are not all valid are made one at a time by `new`.
+    /// tmax)` bit for bit: [`Self::new4_lanes`] of the directions' lanes.
     #[inline]
     pub fn new4(origin: Vec3, d: [Vec3; 4], tmin: f32, tmax: f32) -> [Self; 4] {
-        let axis = |a: usize| {
-            let v = Vec4::from_array(d.map(|d| d[a]));
-            // Subnormal components read as zeros of their sign, as in `new`.
+        let axis = |a: usize| Vec4::from_array(d.map(|d| d[a]));
+        Self::new4_lanes(origin, [axis(0), axis(1), axis(2)], tmin, tmax)
+    }
+
+    /// Four rays from one `origin` whose directions are given by axis, ray
+    /// `l` pointing along `(d[0][l], d[1][l], d[2][l])`: each
+    /// [`Self::new`] of that direction bit for bit, with the constants
+    /// computed in four-lane vectors across the rays (three divisions for
+    /// the reciprocals and two for the shears of all four; the third shear
+    /// constant, `1/dz`, is the reciprocal on axis `kz`) and the shear's
+    /// components chosen by lane masks rather than gathered through memory.
+    /// Rays whose parts are not all valid are made one at a time by `new`.
+    #[inline]
+    pub fn new4_lanes(origin: Vec3, d: [Vec4; 3], tmin: f32, tmax: f32) -> [Self; 4] {
+        // Subnormal components read as zeros of their sign, as in `new`.
+        let flush = |v: Vec4| {
             let tiny = v.abs().cmplt(Vec4::splat(f32::MIN_POSITIVE));
             Vec4::select(tiny, Vec4::ZERO.copysign(v), v)
         };
-        let (x, y, z) = (axis(0), axis(1), axis(2));
+        let [x, y, z] = d.map(flush);
         let (ax, ay, az) = (x.abs(), y.abs(), z.abs());
         let limit = Vec4::splat(DIRECTION_MAX);
         let valid = Vec4::from((origin, 0.0))
@@ -128,8 +137,18 @@ impl Ray {
             & ax.max(ay).max(az).cmpge(Vec4::splat(DIRECTION_MIN)).all()
             & (tmin >= 0.0)
             & !tmax.is_nan();
+        let lanes = [x.to_array(), y.to_array(), z.to_array()];
+        let dir = |l: usize| Vec3::new(lanes[0][l], lanes[1][l], lanes[2][l]);
         if !valid {
-            return d.map(|d| Self::new(origin, d, tmin, tmax));
+            let raw = d.map(|v| v.to_array());
+            return std::array::from_fn(|l| {
+                Self::new(
+                    origin,
+                    Vec3::new(raw[0][l], raw[1][l], raw[2][l]),
+                    tmin,
+                    tmax,
+                )
+            });
         }
         let inv4 = [Vec4::ONE / x, Vec4::ONE / y, Vec4::ONE / z];
         let inv = inv4.map(|v| v.to_array());
@@ -139,22 +158,29 @@ impl Ray {
         let dz = Vec4::select(kz0, x, Vec4::select(kz1, y, z));
         // 1/dz is the reciprocal on axis kz, already divided.
         let inv_dz = Vec4::select(kz0, inv4[0], Vec4::select(kz1, inv4[1], inv4[2]));
-        let (kz0, kz1) = (kz0.bitmask(), kz1.bitmask());
-        let neg = dz.cmplt(Vec4::ZERO).bitmask();
-        let k: [[usize; 3]; 4] = std::array::from_fn(|l| {
-            let kz = largest_axis(kz0 >> l & 1 != 0, kz1 >> l & 1 != 0);
-            shear_axes(kz, neg >> l & 1 != 0)
-        });
-        let lanes = [x.to_array(), y.to_array(), z.to_array()];
-        let pick = |j: usize| Vec4::from_array(std::array::from_fn(|l| lanes[k[l][j]][l]));
-        let shear = [pick(0) / dz, pick(1) / dz, inv_dz].map(|v| v.to_array());
+        let neg4 = dz.cmplt(Vec4::ZERO);
+        // The shear's numerators d[kx], d[ky] (`shear_axes`): for kz = x
+        // the pair (y, z), for kz = y (z, x), for kz = z (x, y), swapped
+        // where d[kz] is negative.
+        let by_kz = |on_x: Vec4, on_y: Vec4, on_z: Vec4| {
+            Vec4::select(kz0, on_x, Vec4::select(kz1, on_y, on_z))
+        };
+        let next = by_kz(y, z, x);
+        let after = by_kz(z, x, y);
+        let sx = Vec4::select(neg4, after, next) / dz;
+        let sy = Vec4::select(neg4, next, after) / dz;
+        let (kz0, kz1, neg) = (kz0.bitmask(), kz1.bitmask(), neg4.bitmask());
+        let shear = [sx, sy, inv_dz].map(|v| v.to_array());
         std::array::from_fn(|l| Ray {
             origin,
-            direction: Vec3::new(lanes[0][l], lanes[1][l], lanes[2][l]),
+            direction: dir(l),
             tmin,
             tmax,
             inv_direction: Vec3::new(inv[0][l], inv[1][l], inv[2][l]),
-            k: k[l],
+            k: shear_axes(
+                largest_axis(kz0 >> l & 1 != 0, kz1 >> l & 1 != 0),
+                neg >> l & 1 != 0,
+            ),
             shear: Vec3::new(shear[0][l], shear[1][l], shear[2][l]),
         })
     }

@@ -248,7 +248,7 @@ pub(super) fn eye_sample<A: Accel, S: RaySink>(
 /// `frame` ([`ao_frame`]), in the form `s` asks for, drawing from `rng`:
 /// `each` is called with every ray, in order. The
 /// paper's forms make their directions four at a time
-/// ([`Sampling::sample4`], [`Frame::cosine_paper4`], [`Ray::new4`]), the
+/// ([`Sampling::sample4`], [`Frame::cosine_paper4_lanes`], [`Ray::new4_lanes`]), the
 /// same rays bit for bit as one at a time.
 #[inline]
 pub(crate) fn ao_rays(
@@ -273,7 +273,7 @@ pub(crate) fn ao_rays(
             };
             for first in (0..s.ao_rays).step_by(4) {
                 let (u, v) = sampling.sample4(first, s.ao_rays, rng);
-                let rays = Ray::new4(origin, frame.cosine_paper4(u, v), tmin, s.radius);
+                let rays = Ray::new4_lanes(origin, frame.cosine_paper4_lanes(u, v), tmin, s.radius);
                 for ray in &rays[..(s.ao_rays - first).min(4) as usize] {
                     each(*ray);
                 }

@@ -70,8 +70,10 @@ impl Frame {
     /// direction is the one-sample form's bit for bit. Everything runs in
     /// four-lane vectors, the sines and cosines too ([`sin_cos4`]: within
     /// 2⁻²³ of the exact values, where the original called `sinf`/`cosf`).
+    /// Returned by axis: the directions' x, y and z lanes, as
+    /// [`crate::geometry::Ray::new4_lanes`] takes them.
     #[inline]
-    pub fn cosine_paper4(&self, u: Vec4, v: Vec4) -> [Vec3; 4] {
+    pub fn cosine_paper4_lanes(&self, u: Vec4, v: Vec4) -> [Vec4; 3] {
         let (sin, cos) = sin_cos4(Vec4::splat(std::f32::consts::TAU) * u);
         let r = v.sqrt();
         let (cr, sr) = (cos * r, sin * r);
@@ -82,12 +84,7 @@ impl Frame {
         let (x, y, z) = (axis(0), axis(1), axis(2));
         // glam's `normalize`: times 1 / sqrt(x·x + y·y + z·z), in that order.
         let recip = Vec4::ONE / (x * x + y * y + z * z).sqrt();
-        let (x, y, z) = (
-            (x * recip).to_array(),
-            (y * recip).to_array(),
-            (z * recip).to_array(),
-        );
-        std::array::from_fn(|l| Vec3::new(x[l], y[l], z[l]))
+        [x * recip, y * recip, z * recip]
     }
 }
 
@@ -234,8 +231,15 @@ fn stratum4(cell: [u32; 4], k: u32, xi: Vec4) -> Vec4 {
     let top = Vec4::from_array(cell.map(|c| (c + 1) as f32));
     let v = Vec4::from_array(cell.map(|c| c as f32)) + xi;
     let v = Vec4::select(v.cmpge(top), below(top), v);
-    let kf = Vec4::splat(k as f32);
-    let (u, edge) = (v / kf, top / kf);
+    let (u, edge) = if k.is_power_of_two() {
+        // Dividing by a power of two is multiplying by its exact
+        // reciprocal: the same bits, without the divisions.
+        let r = Vec4::splat(1.0 / k as f32);
+        (v * r, top * r)
+    } else {
+        let kf = Vec4::splat(k as f32);
+        (v / kf, top / kf)
+    };
     Vec4::select(u.cmpge(edge), below(edge), u)
 }
 
@@ -403,7 +407,7 @@ mod tests {
             let (mut four, mut one) = (Pcg32::new(case, 1), Pcg32::new(case, 1));
             for first in (0..n).step_by(4) {
                 let (u, v) = sampling.sample4(first, n, &mut four);
-                let d = frame.cosine_paper4(u, v);
+                let d = frame.cosine_paper4_lanes(u, v).map(|a| a.to_array());
                 for l in 0..(n - first).min(4) as usize {
                     let (u1, v1) = sampling.sample(first + l as u32, n, &mut one);
                     assert_eq!(
@@ -411,10 +415,7 @@ mod tests {
                         (u1.to_bits(), v1.to_bits())
                     );
                     let d1 = frame.cosine_paper(u1, v1);
-                    assert_eq!(
-                        d[l].to_array().map(f32::to_bits),
-                        d1.to_array().map(f32::to_bits)
-                    );
+                    assert_eq!(d.map(|a| a[l].to_bits()), d1.to_array().map(f32::to_bits));
                 }
             }
             assert_eq!(four.next_u32(), one.next_u32(), "the same numbers drawn");

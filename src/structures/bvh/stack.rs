@@ -8,7 +8,6 @@ use super::{BinaryBvh, NodeRef, LAST, PAIR_PLANES};
 use crate::geometry::{Hit, Ray};
 use crate::stats::Stats;
 use crate::structures::shared::leaf::enter;
-use crate::structures::shared::own_box::Children;
 use crate::structures::shared::tri_block::{intersect_blocks_with, BlockRay};
 use crate::structures::shared::with_stack;
 
@@ -62,25 +61,23 @@ fn trace_n<S: Stats, const ANY: bool, const N: usize>(
         } else {
             let n = &nodes[node as usize];
             tally.planes += PAIR_PLANES;
-            let [tl, tr] = br.test_pair(&n.planes, tmin, tmax);
+            let (hit, t) = br.test_pair_mask(&n.planes, tmin, tmax);
             let [left, right] = n.child;
-            match Children::of(tl, tr) {
-                Children::Both { right_first } => {
-                    let (near, far) = if right_first {
-                        (right, left)
-                    } else {
-                        (left, right)
-                    };
-                    node = near;
-                    stack[sp] = far;
-                    sp += 1;
-                    continue;
-                }
-                Children::One { right: r } => {
-                    node = if r { right } else { left };
-                    continue;
-                }
-                Children::None => {}
+            if hit == 3 {
+                // Both: the nearer first, ties to the left.
+                let (near, far) = if t.y < t.x {
+                    (right, left)
+                } else {
+                    (left, right)
+                };
+                node = near;
+                stack[sp] = far;
+                sp += 1;
+                continue;
+            }
+            if hit != 0 {
+                node = if hit == 2 { right } else { left };
+                continue;
             }
         }
         if sp == 0 {
