@@ -71,8 +71,9 @@ fn main() {
         sampling: Sampling::Stratified,
         ..AoSettings::plain(16, 16, Scene::STACKLESS_CHESS_AO_RADIUS)
     };
-    let phased = std::env::var("RAYTREE_PHASED").is_ok_and(|v| v == "1");
-    if std::env::var("RAYTREE_PHASED").is_ok_and(|v| v == "gen") {
+    let mode = std::env::var("RAYTREE_PHASED").unwrap_or_default();
+    let phased = mode == "1";
+    if mode == "gen" {
         let e = EyeOnly(&b);
         for _ in 0..3 {
             let r = raytree::render::render_ao_phased_uncounted(&e, &scene, &ao, 800, 300);

@@ -140,15 +140,8 @@ impl Ray {
         let lanes = [x.to_array(), y.to_array(), z.to_array()];
         let dir = |l: usize| Vec3::new(lanes[0][l], lanes[1][l], lanes[2][l]);
         if !valid {
-            let raw = d.map(|v| v.to_array());
-            return std::array::from_fn(|l| {
-                Self::new(
-                    origin,
-                    Vec3::new(raw[0][l], raw[1][l], raw[2][l]),
-                    tmin,
-                    tmax,
-                )
-            });
+            // `new` flushes again, which changes nothing.
+            return std::array::from_fn(|l| Self::new(origin, dir(l), tmin, tmax));
         }
         let inv4 = [Vec4::ONE / x, Vec4::ONE / y, Vec4::ONE / z];
         let inv = inv4.map(|v| v.to_array());

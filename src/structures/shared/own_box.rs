@@ -131,13 +131,7 @@ impl BinaryNode for ChildBoxNode {
         tmax: f32,
     ) -> Children {
         let (hit, t) = br.test_pair_mask(&nodes[node].planes, tmin, tmax);
-        match hit {
-            3 => Children::Both {
-                right_first: t.y < t.x,
-            },
-            0 => Children::None,
-            _ => Children::One { right: hit == 2 },
-        }
+        Children::of_mask(hit, t.x, t.y)
     }
 }
 
@@ -192,6 +186,20 @@ impl Children {
             Children::One { right: hit_r }
         } else {
             Children::None
+        }
+    }
+
+    /// [`Self::of`] from a hit mask (bit 0 the left child, bit 1 the right)
+    /// and the entry distances `tl`, `tr`, read only where hit
+    /// ([`BoxRay::test_pair_mask`]).
+    #[inline(always)]
+    pub fn of_mask(hit: u32, tl: f32, tr: f32) -> Children {
+        match hit {
+            3 => Children::Both {
+                right_first: tr < tl,
+            },
+            0 => Children::None,
+            _ => Children::One { right: hit == 2 },
         }
     }
 }
