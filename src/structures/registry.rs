@@ -711,7 +711,11 @@ impl Built {
 /// follows the tree's depth, see [`stack_capacity`]).
 pub fn state_bytes(kind: TraversalKind, depth: u32) -> usize {
     use TraversalKind::*;
-    let laine = |k: usize| 4 + 3 * 8 + if k > 0 { 4 + 4 * k } else { 0 };
+    // The paper's LAINE-k holds node, trail, level and popLevel (28 bytes
+    // with 64-bit words); this kernel adds its `path` and `one` words
+    // (structures/sparse/laine.rs), which let a restart run ahead of its
+    // box tests.
+    let laine = |k: usize| 4 + 5 * 8 + if k > 0 { 4 + 4 * k } else { 0 };
     match kind {
         // node, stack head, entries
         Stack => 4 + 4 + 4 * stack_capacity(depth),
@@ -723,7 +727,7 @@ pub fn state_bytes(kind: TraversalKind, depth: u32) -> usize {
         Sparse => 4 + 8,
         // cur, state
         Hapala => 2 * 4,
-        // node, 64-bit trail, level and popLevel, short stack
+        // node, 64-bit trail, level, popLevel, path and one, short stack
         Laine0 => laine(0),
         Laine1 => laine(1),
         Laine2 => laine(2),

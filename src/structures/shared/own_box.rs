@@ -63,6 +63,18 @@ pub trait BinaryNode: Copy + Send + Sync + 'static {
         tmin: f32,
         tmax: f32,
     ) -> Children;
+    /// [`Self::enter_children`] as a hit mask (bit 0 the left child, bit 1
+    /// the right) and the entry distances `(tl, tr)`, meaningful where
+    /// the mask is set: the same decision, for walks that compare it with
+    /// an expected one rather than branch on it.
+    fn enter_mask(
+        br: &BoxRay,
+        nodes: &[Self],
+        node: usize,
+        left: usize,
+        tmin: f32,
+        tmax: f32,
+    ) -> (u32, f32, f32);
 }
 
 impl BinaryNode for OwnBoxNode {
@@ -86,6 +98,19 @@ impl BinaryNode for OwnBoxNode {
     ) -> Children {
         let [tl, tr] = test_children(br, nodes, left, tmin, tmax);
         Children::of(tl, tr)
+    }
+    #[inline(always)]
+    fn enter_mask(
+        br: &BoxRay,
+        nodes: &[Self],
+        _node: usize,
+        left: usize,
+        tmin: f32,
+        tmax: f32,
+    ) -> (u32, f32, f32) {
+        let [tl, tr] = test_children(br, nodes, left, tmin, tmax);
+        let hit = (tl != f32::INFINITY) as u32 | ((tr != f32::INFINITY) as u32) << 1;
+        (hit, tl, tr)
     }
 }
 
@@ -132,6 +157,18 @@ impl BinaryNode for ChildBoxNode {
     ) -> Children {
         let (hit, t) = br.test_pair_mask(&nodes[node].planes, tmin, tmax);
         Children::of_mask(hit, t.x, t.y)
+    }
+    #[inline(always)]
+    fn enter_mask(
+        br: &BoxRay,
+        nodes: &[Self],
+        node: usize,
+        _left: usize,
+        tmin: f32,
+        tmax: f32,
+    ) -> (u32, f32, f32) {
+        let (hit, t) = br.test_pair_mask(&nodes[node].planes, tmin, tmax);
+        (hit, t.x, t.y)
     }
 }
 
@@ -308,6 +345,37 @@ impl<'a, const ANY: bool, N: BinaryNode> Walk<'a, ANY, N> {
             self.tmax,
         );
         Step::Inner { left, children }
+    }
+
+    /// [`Self::step`] at a node known to be inner (a restart's descent
+    /// above its pop level): the same visit, counts and test, returned as
+    /// the left child's slot and [`BinaryNode::enter_mask`]'s mask and
+    /// distances. [`Children::of_mask`] of them is what `step` returns.
+    #[inline(always)]
+    pub fn step_inner<S: Stats>(
+        &mut self,
+        node: usize,
+        children: impl FnOnce(&N) -> u32,
+        id: impl FnOnce() -> u32,
+        stats: &mut S,
+    ) -> (u32, u32, f32, f32) {
+        let n = &self.nodes[node];
+        debug_assert!(!n.is_leaf());
+        self.tally.nodes += 1;
+        if S::LOGS {
+            stats.visit(id());
+        }
+        self.tally.planes += 2 * OwnBoxNode::PLANES;
+        let left = children(n);
+        let (hit, tl, tr) = N::enter_mask(
+            &self.br,
+            self.nodes,
+            node,
+            left as usize,
+            self.tmin,
+            self.tmax,
+        );
+        (left, hit, tl, tr)
     }
 
     /// Ends the walk: hands the tally to `stats` and returns the hit.
