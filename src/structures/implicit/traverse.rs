@@ -7,7 +7,7 @@
 use super::ImplicitBvh;
 use crate::geometry::{Hit, Ray};
 use crate::stats::Stats;
-use crate::structures::shared::own_box::{Children, Step, Walk};
+use crate::structures::shared::own_box::{branch_pick, Children, Step, Walk};
 
 /// The walk over `im`'s slots from the root (heap position 0, slot 1);
 /// `None` when the ray misses the root's box.
@@ -57,7 +57,7 @@ pub fn implicit_a<S: Stats, const ANY: bool>(
                 Children::Both { right_first } => {
                     level_start <<= 1;
                     level_index <<= 1;
-                    swap_mask = swap_mask << 1 | right_first as u32;
+                    swap_mask = branch_pick(right_first, swap_mask << 1 | 1, swap_mask << 1);
                     continue;
                 }
                 Children::One { right } => {
@@ -66,7 +66,7 @@ pub fn implicit_a<S: Stats, const ANY: bool>(
                     // the left child is the one taken.
                     level_start <<= 1;
                     level_index = (level_index << 1) + 1;
-                    swap_mask = swap_mask << 1 | !right as u32;
+                    swap_mask = branch_pick(right, swap_mask << 1, swap_mask << 1 | 1);
                     continue;
                 }
                 Children::None => {}
@@ -112,12 +112,12 @@ pub fn implicit_b<S: Stats, const ANY: bool>(
         ) {
             Step::Inner { children, .. } => match children {
                 Children::Both { right_first } => {
-                    index = index << 1 | right_first as u32;
+                    index = branch_pick(right_first, index << 1 | 1, index << 1);
                     level_index <<= 1;
                     continue;
                 }
                 Children::One { right } => {
-                    index = index << 1 | right as u32;
+                    index = branch_pick(right, index << 1 | 1, index << 1);
                     level_index = (level_index << 1) + 1;
                     continue;
                 }

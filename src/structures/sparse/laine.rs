@@ -15,7 +15,7 @@
 use super::SparseLayout;
 use crate::geometry::{Hit, Ray};
 use crate::stats::Stats;
-use crate::structures::shared::own_box::{BinaryNode, Children, Step};
+use crate::structures::shared::own_box::{branch_pick, BinaryNode, Children, Step};
 
 const ROOT_LEVEL: u64 = 1 << 63;
 
@@ -44,85 +44,61 @@ pub fn trace<L: SparseLayout, S: Stats, const ANY: bool, const K: usize>(
         return None;
     }
     let mut w = sp.walk::<ANY, S>(ray, stats)?;
+    let mut t = Trail::<K> {
+        level: ROOT_LEVEL,
+        ..Default::default()
+    };
     let mut node = 0u32;
-    let (mut trail, mut level, mut pop_level) = (0u64, ROOT_LEVEL, 0u64);
-    let (mut path, mut one) = (0u64, 0u64);
-    let mut short = ShortStack::<K>::default();
     'visit: loop {
-        let mut step = w.step(node as usize, BinaryNode::target, || sp.id(node), stats);
-        'decide: loop {
-            match step {
-                Step::Inner { left, children } => match children {
-                    Children::Both { right_first } => {
-                        level >>= 1;
-                        let far_taken = trail & level != 0;
-                        let right = right_first != far_taken;
-                        node = left + right as u32;
-                        path = (path & !level) | (level & (right as u64).wrapping_neg());
-                        one &= !level;
-                        if K > 0 && !far_taken {
-                            short.push(left + !right as u32);
-                        }
-                        continue 'visit;
-                    }
-                    Children::One { right } => {
-                        level >>= 1;
-                        if level != pop_level {
-                            trail |= level;
-                            node = left + right as u32;
-                            path = (path & !level) | (level & (right as u64).wrapping_neg());
-                            one |= level;
-                            continue 'visit;
-                        }
-                        // At the pop level with one child hit: the far child
-                        // (the pop target) is culled now; the near one is done.
-                    }
-                    Children::None => {}
-                },
-                Step::Leaf => {}
-                Step::Done => break 'visit,
+        match w.step(node as usize, BinaryNode::target, || sp.id(node), stats) {
+            Step::Inner { left, children } => {
+                if let Some(next) = t.descend(left, children) {
+                    node = next;
+                    continue;
+                }
             }
-            // Pop: mark this level finished; the carry runs through the
-            // finished levels to the deepest pending one.
-            trail &= level.wrapping_neg();
-            trail = trail.wrapping_add(level);
-            if trail & ROOT_LEVEL != 0 {
+            Step::Leaf => {}
+            Step::Done => break,
+        }
+        loop {
+            // Pop: to the short stack's top, or restart.
+            if t.pop() {
                 break 'visit;
             }
-            level = trail & trail.wrapping_neg();
-            pop_level = level;
-            // That level's near child is finished: its path turns far.
-            path ^= level;
-            if let Some(far) = short.pop() {
+            if let Some(far) = t.short.pop() {
                 node = far;
                 continue 'visit;
             }
             // Restart: descend from the root along `path` to the pop level.
             node = 0;
-            level = ROOT_LEVEL;
+            t.level = ROOT_LEVEL;
             loop {
                 let (left, hit, tl, tr) =
                     w.step_inner(node as usize, BinaryNode::target, || sp.id(node), stats);
-                let below = level >> 1;
-                let right = path & below != 0;
-                let expected = if one & below != 0 {
+                let below = t.level >> 1;
+                let right = t.path & below != 0;
+                let expected = if t.one & below != 0 {
                     1 + right as u32
                 } else {
                     3
                 };
                 if hit != expected {
-                    step = Step::Inner {
-                        left,
-                        children: Children::of_mask(hit, tl, tr),
-                    };
-                    continue 'decide;
+                    // The plain step's decision on this test; a pop again
+                    // when it enters no child.
+                    match t.descend(left, Children::of_mask(hit, tl, tr)) {
+                        Some(next) => {
+                            node = next;
+                            continue 'visit;
+                        }
+                        None => break,
+                    }
                 }
-                level = below;
+                t.level = below;
                 node = left + right as u32;
-                if K > 0 && trail & below == 0 {
-                    short.push(left + !right as u32);
+                if K > 0 && t.trail & below == 0 {
+                    t.short.push(left + !right as u32);
                 }
-                if below == pop_level {
+                if below == t.pop_level {
                     continue 'visit;
                 }
             }
@@ -131,43 +107,103 @@ pub fn trace<L: SparseLayout, S: Stats, const ANY: bool, const K: usize>(
     w.finish(stats)
 }
 
-/// The short stack of `K` entries (at most 8); when full, a push drops the
-/// oldest entry.
-struct ShortStack<const K: usize> {
-    entries: [u32; 8],
-    head: usize,
+/// The walk's state besides its node: Laine's trail, level and pop level,
+/// the `path` and `one` words (see [`trace`]) and the short stack.
+#[derive(Default)]
+struct Trail<const K: usize> {
+    trail: u64,
+    level: u64,
+    pop_level: u64,
+    path: u64,
+    one: u64,
+    short: ShortStack<K>,
 }
 
-impl<const K: usize> Default for ShortStack<K> {
-    fn default() -> Self {
-        ShortStack {
-            entries: [0; 8],
-            head: 0,
+impl<const K: usize> Trail<K> {
+    /// An inner node's step, `children` entered from the pair at `left`:
+    /// the child to visit next, or `None` for a pop.
+    #[inline(always)]
+    fn descend(&mut self, left: u32, children: Children) -> Option<u32> {
+        match children {
+            Children::Both { right_first } => {
+                self.level >>= 1;
+                let far_taken = self.trail & self.level != 0;
+                let right = right_first != far_taken;
+                self.path = (self.path & !self.level) | (self.level & (right as u64).wrapping_neg());
+                self.one &= !self.level;
+                if K > 0 && !far_taken {
+                    self.short.push(left + !right as u32);
+                }
+                Some(branch_pick(right, left + 1, left))
+            }
+            Children::One { right } => {
+                self.level >>= 1;
+                if self.level == self.pop_level {
+                    // At the pop level with one child hit: the far child
+                    // (the pop target) is culled now; the near one is done.
+                    return None;
+                }
+                self.trail |= self.level;
+                self.path = (self.path & !self.level) | (self.level & (right as u64).wrapping_neg());
+                self.one |= self.level;
+                Some(branch_pick(right, left + 1, left))
+            }
+            Children::None => None,
         }
+    }
+
+    /// Marks the current level finished; the carry runs through the
+    /// finished levels to the deepest pending one, which becomes the pop
+    /// level (its path turned to the far child). True when none is left.
+    #[inline(always)]
+    fn pop(&mut self) -> bool {
+        self.trail &= self.level.wrapping_neg();
+        self.trail = self.trail.wrapping_add(self.level);
+        if self.trail & ROOT_LEVEL != 0 {
+            return true;
+        }
+        self.level = self.trail & self.trail.wrapping_neg();
+        self.pop_level = self.level;
+        self.path ^= self.level;
+        false
     }
 }
 
+/// The short stack of `K` entries (0, 1, 2, 4 or 8): a ring, so that a push
+/// onto a full stack overwrites the oldest entry (Laine's short stack drops
+/// it) without moving the others.
+#[derive(Default)]
+struct ShortStack<const K: usize> {
+    entries: [u32; 8],
+    /// Where the next push goes, modulo `K`.
+    head: usize,
+    /// Entries held, at most `K`.
+    len: usize,
+}
+
 impl<const K: usize> ShortStack<K> {
+    const MASK: usize = {
+        assert!(K <= 8 && (K == 0 || K.is_power_of_two()));
+        K.saturating_sub(1)
+    };
+
     #[inline(always)]
     fn push(&mut self, far: u32) {
         if K == 0 {
             return;
         }
-        if self.head < K {
-            self.entries[self.head] = far;
-            self.head += 1;
-        } else {
-            self.entries.copy_within(1..K, 0);
-            self.entries[K - 1] = far;
-        }
+        self.entries[self.head & Self::MASK] = far;
+        self.head = (self.head + 1) & Self::MASK;
+        self.len = (self.len + 1).min(K);
     }
 
     #[inline(always)]
     fn pop(&mut self) -> Option<u32> {
-        if K == 0 || self.head == 0 {
+        if K == 0 || self.len == 0 {
             return None;
         }
-        self.head -= 1;
+        self.len -= 1;
+        self.head = self.head.wrapping_sub(1) & Self::MASK;
         Some(self.entries[self.head])
     }
 }

@@ -6,7 +6,7 @@
 use super::{sibling, SparseLayout};
 use crate::geometry::{Hit, Ray};
 use crate::stats::Stats;
-use crate::structures::shared::own_box::{BinaryNode, Children, Step};
+use crate::structures::shared::own_box::{branch_pick, BinaryNode, Children, Step};
 
 /// Closest hit (`ANY = false`) or any hit. `levelIndex` is 64 bits wide:
 /// trees up to depth 63.
@@ -26,13 +26,13 @@ pub fn trace<L: SparseLayout, S: Stats, const ANY: bool>(
             Step::Inner { left, children } => match children {
                 Children::Both { right_first } => {
                     level_index <<= 1;
-                    node = left + right_first as u32;
+                    node = branch_pick(right_first, left + 1, left);
                     continue;
                 }
                 Children::One { right } => {
                     // One child rejected: its slot counts as done.
                     level_index = (level_index << 1) + 1;
-                    node = left + right as u32;
+                    node = branch_pick(right, left + 1, left);
                     continue;
                 }
                 Children::None => {}

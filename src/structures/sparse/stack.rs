@@ -5,7 +5,7 @@
 use super::SparseLayout;
 use crate::geometry::{Hit, Ray};
 use crate::stats::Stats;
-use crate::structures::shared::own_box::{BinaryNode, Children, Step};
+use crate::structures::shared::own_box::{branch_pick, BinaryNode, Children, Step};
 use crate::structures::shared::with_stack;
 
 /// Closest hit (`ANY = false`) or any hit (`ANY = true`).
@@ -35,18 +35,13 @@ fn trace_n<L: SparseLayout, S: Stats, const ANY: bool, const N: usize>(
         match w.step(node as usize, BinaryNode::target, || sp.id(node), stats) {
             Step::Inner { left, children } => match children {
                 Children::Both { right_first } => {
-                    let (near, far) = if right_first {
-                        (left + 1, left)
-                    } else {
-                        (left, left + 1)
-                    };
-                    node = near;
-                    stack[top] = far;
+                    node = branch_pick(right_first, left + 1, left);
+                    stack[top] = branch_pick(right_first, left, left + 1);
                     top += 1;
                     continue;
                 }
                 Children::One { right } => {
-                    node = left + right as u32;
+                    node = branch_pick(right, left + 1, left);
                     continue;
                 }
                 Children::None => {}
