@@ -712,10 +712,11 @@ impl Built {
 pub fn state_bytes(kind: TraversalKind, depth: u32) -> usize {
     use TraversalKind::*;
     // The paper's LAINE-k holds node, trail, level and popLevel (28 bytes
-    // with 64-bit words); this kernel adds its `path` and `one` words
-    // (structures/sparse/laine.rs), which let a restart run ahead of its
-    // box tests.
-    let laine = |k: usize| 4 + 5 * 8 + if k > 0 { 4 + 4 * k } else { 0 };
+    // with 64-bit words); for short stacks of fewer than 4 entries this
+    // kernel adds its `path` and `one` words (structures/sparse/laine.rs),
+    // which let a restart run ahead of its box tests.
+    let laine =
+        |k: usize| 4 + 3 * 8 + if k < 4 { 2 * 8 } else { 0 } + if k > 0 { 4 + 4 * k } else { 0 };
     match kind {
         // node, stack head, entries
         Stack => 4 + 4 + 4 * stack_capacity(depth),
@@ -727,7 +728,8 @@ pub fn state_bytes(kind: TraversalKind, depth: u32) -> usize {
         Sparse => 4 + 8,
         // cur, state
         Hapala => 2 * 4,
-        // node, 64-bit trail, level, popLevel, path and one, short stack
+        // node, 64-bit trail, level, popLevel (path and one below k = 4),
+        // short stack
         Laine0 => laine(0),
         Laine1 => laine(1),
         Laine2 => laine(2),

@@ -326,9 +326,11 @@ fn state_sizes_follow_figure_5() {
     assert_eq!(state_bytes(TraversalKind::ImplicitA, 20), 12);
     assert_eq!(state_bytes(TraversalKind::ImplicitB, 20), 8);
     assert_eq!(state_bytes(TraversalKind::Hapala, 20), 8);
-    // node, trail, level, popLevel, and the kernel's path and one words.
+    // node, trail, level, popLevel; the kernel's path and one words below
+    // k = 4; the short stack's head and entries.
     assert_eq!(state_bytes(TraversalKind::Laine0, 20), 4 + 5 * 8);
     assert_eq!(state_bytes(TraversalKind::Laine2, 20), 4 + 5 * 8 + 4 + 8);
+    assert_eq!(state_bytes(TraversalKind::Laine8, 20), 4 + 3 * 8 + 4 + 32);
     assert!(state_bytes(TraversalKind::Laine8, 20) > state_bytes(TraversalKind::Laine0, 20));
     assert!(state_bytes(TraversalKind::Stack, 20) > state_bytes(TraversalKind::Laine8, 20));
     assert_eq!(state_bytes(TraversalKind::Stack, 20), 8 + 4 * 32);

@@ -8,7 +8,7 @@ use super::{sibling, SparseBvh};
 use crate::geometry::{Hit, Ray};
 use crate::stats::Stats;
 use crate::structures::shared::leaf::enter;
-use crate::structures::shared::own_box::OwnBoxNode;
+use crate::structures::shared::own_box::{branch_pick, OwnBoxNode};
 
 #[derive(Clone, Copy, PartialEq, Eq)]
 enum From {
@@ -36,11 +36,7 @@ pub fn trace<S: Stats, const ANY: bool>(sp: &SparseBvh, ray: &Ray, stats: &mut S
     // (a zero component goes right, as in the reference code).
     let near_child = |n: u32| {
         let left = nodes[n as usize].target();
-        if d[sp.axis(n) & 3] > 0.0 {
-            left
-        } else {
-            left + 1
-        }
+        branch_pick(d[sp.axis(n) & 3] > 0.0, left, left + 1)
     };
     tally.nodes += 1;
     if S::LOGS {

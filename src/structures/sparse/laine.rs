@@ -19,6 +19,10 @@ use crate::structures::shared::own_box::{branch_pick, BinaryNode, Children, Step
 
 const ROOT_LEVEL: u64 = 1 << 63;
 
+/// Short stacks this size and larger restart rarely: their walks keep no
+/// `path` and restart as Laine's does.
+const RUN_AHEAD_BELOW: usize = 4;
+
 /// Closest hit (`ANY = false`) or any hit, with a short stack of `K`.
 ///
 /// Beside Laine's trail, level and pop level the walk keeps two more words
@@ -72,6 +76,9 @@ pub fn trace<L: SparseLayout, S: Stats, const ANY: bool, const K: usize>(
             // Restart: descend from the root along `path` to the pop level.
             node = 0;
             t.level = ROOT_LEVEL;
+            if !Trail::<K>::RUN_AHEAD {
+                continue 'visit;
+            }
             loop {
                 let (left, hit, tl, tr) =
                     w.step_inner(node as usize, BinaryNode::target, || sp.id(node), stats);
@@ -120,6 +127,9 @@ struct Trail<const K: usize> {
 }
 
 impl<const K: usize> Trail<K> {
+    /// Whether restarts run ahead along `path` (the words kept up to date).
+    const RUN_AHEAD: bool = K < RUN_AHEAD_BELOW;
+
     /// An inner node's step, `children` entered from the pair at `left`:
     /// the child to visit next, or `None` for a pop.
     #[inline(always)]
@@ -129,8 +139,11 @@ impl<const K: usize> Trail<K> {
                 self.level >>= 1;
                 let far_taken = self.trail & self.level != 0;
                 let right = right_first != far_taken;
-                self.path = (self.path & !self.level) | (self.level & (right as u64).wrapping_neg());
-                self.one &= !self.level;
+                if Self::RUN_AHEAD {
+                    self.path =
+                        (self.path & !self.level) | (self.level & (right as u64).wrapping_neg());
+                    self.one &= !self.level;
+                }
                 if K > 0 && !far_taken {
                     self.short.push(left + !right as u32);
                 }
@@ -144,8 +157,11 @@ impl<const K: usize> Trail<K> {
                     return None;
                 }
                 self.trail |= self.level;
-                self.path = (self.path & !self.level) | (self.level & (right as u64).wrapping_neg());
-                self.one |= self.level;
+                if Self::RUN_AHEAD {
+                    self.path =
+                        (self.path & !self.level) | (self.level & (right as u64).wrapping_neg());
+                    self.one |= self.level;
+                }
                 Some(branch_pick(right, left + 1, left))
             }
             Children::None => None,
@@ -164,7 +180,9 @@ impl<const K: usize> Trail<K> {
         }
         self.level = self.trail & self.trail.wrapping_neg();
         self.pop_level = self.level;
-        self.path ^= self.level;
+        if Self::RUN_AHEAD {
+            self.path ^= self.level;
+        }
         false
     }
 }
