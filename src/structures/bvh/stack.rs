@@ -8,6 +8,7 @@ use super::{BinaryBvh, NodeRef, LAST, PAIR_PLANES};
 use crate::geometry::{Hit, Ray};
 use crate::stats::Stats;
 use crate::structures::shared::leaf::enter;
+use crate::structures::shared::own_box::branch_pick;
 use crate::structures::shared::tri_block::{intersect_blocks_with, BlockRay};
 use crate::structures::shared::with_stack;
 
@@ -65,18 +66,14 @@ fn trace_n<S: Stats, const ANY: bool, const N: usize>(
             let [left, right] = n.child;
             if hit == 3 {
                 // Both: the nearer first, ties to the left.
-                let (near, far) = if t.y < t.x {
-                    (right, left)
-                } else {
-                    (left, right)
-                };
-                node = near;
-                stack[sp] = far;
+                let right_first = t.y < t.x;
+                node = branch_pick(right_first, right, left);
+                stack[sp] = branch_pick(right_first, left, right);
                 sp += 1;
                 continue;
             }
             if hit != 0 {
-                node = if hit == 2 { right } else { left };
+                node = branch_pick(hit == 2, right, left);
                 continue;
             }
         }

@@ -10,7 +10,9 @@
 //! [`trace`]) let a restart's descent load each next node before its box
 //! test has decided it, with the same visits and decisions as the plain
 //! walk (checked against it in the tests below): LAINE-0's kernel time
-//! 0.57x on the paper's CHESS rays (README, issue 26).
+//! 0.57x on the paired nodes and 0.63x on the own-box nodes, on the
+//! paper's CHESS rays (ARCHITECTURE.md, issue 26). Short stacks of 4 or
+//! more entries rarely restart and keep Laine's plain restart.
 
 use super::SparseLayout;
 use crate::geometry::{Hit, Ray};
