@@ -370,6 +370,9 @@ impl<'a, const ANY: bool, N: BinaryNode> Walk<'a, ANY, N> {
     /// above its pop level): the same visit, counts and test, returned as
     /// the left child's slot and [`BinaryNode::enter_mask`]'s mask and
     /// distances. [`Children::of_mask`] of them is what `step` returns.
+    /// Written out beside `step` rather than shared with it: `step` built
+    /// on this (and `enter_children` on `enter_mask`) took 1.1x the time of
+    /// every walk over these nodes, STACK included.
     #[inline(always)]
     pub fn step_inner<S: Stats>(
         &mut self,
