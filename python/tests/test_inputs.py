@@ -200,6 +200,9 @@ def test_build_errors(chess):
     for size in (0, 256):
         with pytest.raises(ValueError, match=r"max_leaf_size must be in 1..=255"):
             raytree.Accelerator(chess, max_leaf_size=size)
+    for block in (0, 3, 32, -4):
+        with pytest.raises(ValueError, match=r"sah_block must be 1, 2, 4, 8 or 16, not"):
+            raytree.Accelerator(chess, sah_block=block)
     with pytest.raises(TypeError, match="scene must be a raytree.Scene"):
         raytree.Accelerator(np.zeros((3, 3)))
     with pytest.raises(ValueError, match="threads"):

@@ -52,6 +52,13 @@ def test_every_structure_agrees_with_the_oracle(scene_name, builder, request):
             accel.count_intersections(rays, tmin, tmax), want_count, what
         )
         assert_same_lists(accel.list_intersections(rays, tmin, tmax), want_list, what)
+    # SAH costs in blocks of four triangles: another tree, the same answers.
+    for name in ["bvh", "bvh8", "cwbvh", "dst"]:
+        accel = raytree.Accelerator(scene, name, builder=builder, sah_block=4)
+        what = f"{scene_name} {name} {builder} sah_block=4"
+        assert accel.info()["bvh"]["sah_block"] == 4
+        assert_same_closest(accel.cast_rays(rays, tmin, tmax), want, what)
+        np.testing.assert_array_equal(accel.test_occlusions(rays, tmin, tmax), want_any, what)
 
 
 @pytest.mark.parametrize("mesh", ["teapot.obj", "bunny.obj"])
@@ -251,6 +258,7 @@ def test_info(chess):
         assert info["bytes"] == accel.bytes == info["node_bytes"] + info["index_bytes"]
         assert info["triangles"] == chess.triangle_count
         assert info["bvh"]["builder"] == "hybrid" and info["bvh"]["max_leaf_size"] == 4
+        assert info["bvh"]["sah_block"] == 1
         assert info["bvh"]["nodes"] == info["bvh"]["inner_nodes"] + info["bvh"]["leaves"]
         assert info["leaves"] >= 1
         if name.startswith("bvh"):

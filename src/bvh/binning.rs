@@ -136,13 +136,48 @@ impl BinMap {
     }
 }
 
+/// How the SAH counts a leaf's intersection cost: per triangle (blocks of
+/// one, the textbook cost), or per block of `2^shift` triangles, the
+/// leaves' triangles being tested a block at a time (Embree's
+/// `sahBlockSize`: a leaf of 5 to 8 triangles costs two blocks of four).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Blocks {
+    shift: u32,
+}
+
+impl Blocks {
+    /// Blocks of `size` triangles, a power of two (1 to 16).
+    pub fn of(size: usize) -> Self {
+        assert!(
+            size.is_power_of_two() && size <= 16,
+            "sah_block must be 1, 2, 4, 8 or 16"
+        );
+        Blocks {
+            shift: size.trailing_zeros(),
+        }
+    }
+
+    /// Triangles per block.
+    pub fn size(self) -> usize {
+        1 << self.shift
+    }
+
+    /// The intersection cost of `n` triangles: `⌈n / size⌉`, which is `n`
+    /// itself, bit for bit, for blocks of one.
+    #[inline(always)]
+    pub fn cost(self, n: u32) -> f32 {
+        ((n >> self.shift) + (n & ((1 << self.shift) - 1) != 0) as u32) as f32
+    }
+}
+
 /// The best split found: triangles whose centroid falls in a bin below
 /// `bin` go left.
 #[derive(Clone, Copy, Debug)]
 pub struct Split {
     pub map: BinMap,
     pub bin: usize,
-    /// `1 + (A_L·N_L + A_R·N_R) / A`.
+    /// `1 + (A_L·C(N_L) + A_R·C(N_R)) / A`, `C` the [`Blocks::cost`] of
+    /// the search (`C(N) = N` for blocks of one).
     pub cost: f32,
 }
 
@@ -221,19 +256,19 @@ impl Filled {
 /// them, right after a filled bin, is the one a sweep over every bin keeps.
 /// So the costs, and the split chosen, are those of the full sweep, bit
 /// for bit.
-fn sweep(map: &BinMap, filled: &Filled, inv_area: f32, best: &mut Option<Split>) {
+fn sweep(map: &BinMap, filled: &Filled, inv_area: f32, blocks: Blocks, best: &mut Option<Split>) {
     let bins = &filled.bins[..];
     let mut right_cost = [0.0f32; MAX_BINS];
     // From the right: right_cost[j] = A(bins[j..]) * N(bins[j..]).
     let mut acc = EMPTY_BIN;
     for j in (1..bins.len()).rev() {
         acc.join(&bins[j]);
-        right_cost[j] = acc.area() * acc.count as f32;
+        right_cost[j] = acc.area() * blocks.cost(acc.count);
     }
     let mut acc = EMPTY_BIN;
     for j in 1..bins.len() {
         acc.join(&bins[j - 1]);
-        let cost = 1.0 + (acc.area() * acc.count as f32 + right_cost[j]) * inv_area;
+        let cost = 1.0 + (acc.area() * blocks.cost(acc.count) + right_cost[j]) * inv_area;
         if best.is_none_or(|b| cost < b.cost) {
             *best = Some(Split {
                 map: *map,
@@ -244,13 +279,14 @@ fn sweep(map: &BinMap, filled: &Filled, inv_area: f32, best: &mut Option<Split>)
     }
 }
 
-/// Finds the cheapest binned split of `refs`, or `None` if every axis has
-/// all centroids in one bin.
+/// Finds the cheapest binned split of `refs`, intersection costs counted
+/// in `blocks`, or `None` if every axis has all centroids in one bin.
 pub fn best_split(
     refs: &[PrimRef],
     node_area: f32,
     centroid_bounds: &Aabb,
     nbins: usize,
+    blocks: Blocks,
 ) -> Option<Split> {
     let extent = centroid_bounds.extent();
     let mut maps = [BinMap {
@@ -314,7 +350,7 @@ pub fn best_split(
             for (k, r) in ks.iter().zip(refs) {
                 filled.bins[slot_of[k[a] as usize & (MAX_BINS - 1)] as usize].add(r.min(), r.max());
             }
-            sweep(map, &filled, inv_area, &mut best);
+            sweep(map, &filled, inv_area, blocks, &mut best);
         }
         return best;
     }
@@ -356,7 +392,7 @@ pub fn best_split(
                 filled.push(k, *b);
             }
         }
-        sweep(map, &filled, inv_area, &mut best);
+        sweep(map, &filled, inv_area, blocks, &mut best);
     }
     best
 }
@@ -375,7 +411,9 @@ mod tests {
         node_area: f32,
         cb: &Aabb,
         nbins: usize,
+        block: u32,
     ) -> Option<(usize, usize, u32)> {
+        let c = |n: u32| n.div_ceil(block) as f32;
         let extent = cb.extent();
         let maps: Vec<BinMap> = (0..3)
             .filter(|&a| extent[a] > 0.0)
@@ -404,7 +442,7 @@ mod tests {
             for k in (1..nbins).rev() {
                 acc = acc.union(bins[k].0);
                 n += bins[k].1;
-                right[k] = acc.area() * n as f32;
+                right[k] = acc.area() * c(n);
             }
             let (mut acc, mut n) = (Aabb::EMPTY, 0);
             for k in 1..nbins {
@@ -413,7 +451,7 @@ mod tests {
                 if n == 0 || n as usize == ids.len() {
                     continue;
                 }
-                let cost = 1.0 + (acc.area() * n as f32 + right[k]) * inv_area;
+                let cost = 1.0 + (acc.area() * c(n) + right[k]) * inv_area;
                 if best.is_none_or(|b| cost < b.2) {
                     best = Some((map.axis, k, cost));
                 }
@@ -426,7 +464,8 @@ mod tests {
     /// sorted path for small nodes and the parallel fill, chooses the
     /// split a full sweep chooses, at the same cost bit for bit; and
     /// `goes_left` sends every centroid where `bin` does. Nodes of 2 to
-    /// 70000 triangles, clustered and coincident centroids, 2 to 64 bins.
+    /// 70000 triangles, clustered and coincident centroids, 2 to 64 bins,
+    /// costs per triangle and per block of 2, 4 and 16.
     #[test]
     fn split_search_equals_the_full_sweep() {
         let mut rng = Pcg32::new(11, 5);
@@ -462,7 +501,9 @@ mod tests {
             let (b, cb) = ids.iter().fold((Aabb::EMPTY, Aabb::EMPTY), |(b, cb), &i| {
                 (b.union(bounds[i as usize]), cb.grow(centroids[i as usize]))
             });
-            let want = full_sweep(&ids, &bounds, &centroids, b.area(), &cb, nbins);
+            // (case / 11: the 70,000-triangle cases meet every block size.)
+            let block = [1, 1, 4, 2, 16][(case / 11) % 5];
+            let want = full_sweep(&ids, &bounds, &centroids, b.area(), &cb, nbins, block);
             let refs: Vec<PrimRef> = ids
                 .iter()
                 .map(|&i| PrimRef::new(&bounds[i as usize], i))
@@ -472,11 +513,11 @@ mod tests {
                 assert_eq!(r.bounds(), bounds[i as usize]);
                 assert_eq!(Vec3::from(r.centroid()), centroids[i as usize]);
             }
-            let got = best_split(&refs, b.area(), &cb, nbins);
+            let got = best_split(&refs, b.area(), &cb, nbins, Blocks::of(block as usize));
             assert_eq!(
                 got.map(|s| (s.map.axis, s.bin, s.cost.to_bits())),
                 want,
-                "case {case}: {n} triangles, {nbins} bins"
+                "case {case}: {n} triangles, {nbins} bins, blocks of {block}"
             );
             if let Some(s) = got {
                 for c in &centroids {
@@ -484,6 +525,21 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// `Blocks::cost` is `⌈n / size⌉` (and `n` for blocks of one) over
+    /// the whole range of counts.
+    #[test]
+    fn block_costs_round_up() {
+        for size in [1usize, 2, 4, 8, 16] {
+            let b = Blocks::of(size);
+            assert_eq!(b.size(), size);
+            for n in (0..300).chain([u32::MAX - 17, u32::MAX - 1, u32::MAX]) {
+                assert_eq!(b.cost(n), n.div_ceil(size as u32) as f32, "{n} / {size}");
+            }
+        }
+        assert_eq!(Blocks::of(1).cost(123_457).to_bits(), 123_457f32.to_bits());
+        assert_eq!(Blocks::of(4).cost(5), 2.0);
     }
 
     /// The vector truncation equals `BinMap::bin` on the values the

@@ -29,6 +29,10 @@ pub struct BuildStats {
     pub builder: String,
     /// [`BuildOptions::max_leaf_size`] of the build.
     pub max_leaf_size: usize,
+    /// [`BuildOptions::sah_block`] of the build: the SAH counted
+    /// intersection costs per block of this many triangles (1: per
+    /// triangle).
+    pub sah_block: usize,
     /// Wall-clock time of the build, in seconds.
     pub build_seconds: f64,
     /// Nodes in total: `inner_nodes + leaves`, which is `2 · leaves - 1`.

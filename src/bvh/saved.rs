@@ -1,5 +1,7 @@
 //! The canonical BVH in a saved file ([`crate::saved`]): `bvh.meta` (the
-//! builder's name, the leaf size limit, build time, SAH cost), `bvh.nodes`
+//! builder's name, the leaf size limit, build time, SAH cost, and the SAH
+//! block size where it is not 1, so that a default build's file is the one
+//! earlier versions wrote), `bvh.nodes`
 //! (nine u32 words per node in preorder: the box as six f32, then a kind
 //! word (bit 31 set for a leaf; an inner node's split axis in bits 0–1),
 //! then the right child and 0 for an inner node, whose left child is the
@@ -75,6 +77,11 @@ impl Bvh {
             .u32(self.stats.max_leaf_size as u32)
             .f64(self.stats.build_seconds)
             .f64(self.stats.sah_cost);
+        // Written only where it is not the default, so that a file of a
+        // default build is the one earlier versions wrote (and read).
+        if self.stats.sah_block != 1 {
+            meta.u32(self.stats.sah_block as u32);
+        }
         s.record("bvh.meta", meta);
         s.owned("bvh.nodes", self.nodes.par_iter().map(encode).collect());
         s.slice("bvh.prims", &self.prims);
@@ -88,7 +95,13 @@ impl Bvh {
         let max_leaf_size = r.u32()? as usize;
         let build_seconds = r.f64()?;
         let sah_cost = r.f64()?;
+        let sah_block = if r.at_end() { 1 } else { r.u32()? as usize };
         r.finish()?;
+        if !(sah_block.is_power_of_two() && sah_block <= 16) {
+            return Err(format!(
+                "the BVH's SAH block size {sah_block} is not 1, 2, 4, 8 or 16"
+            ));
+        }
         if !Builder::ALL.iter().any(|b| b.name() == builder) {
             return Err(format!("the BVH names an unknown builder '{builder}'"));
         }
@@ -140,6 +153,7 @@ impl Bvh {
             stats: BuildStats {
                 builder,
                 max_leaf_size,
+                sah_block,
                 build_seconds,
                 nodes: n,
                 inner_nodes: inner,

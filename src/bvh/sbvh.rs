@@ -26,7 +26,7 @@
 //! children's (a spatial split leaves the parent's box, the union of its
 //! references' unclipped boxes, possibly larger).
 
-use super::binning::{best_split, PrimRef, Split, MAX_BINS};
+use super::binning::{best_split, Blocks, PrimRef, Split, MAX_BINS};
 use super::build::{BuildOptions, PARALLEL_SUBTREE, SAH_MAX_DEPTH};
 use super::{Node, NodeKind, NO_PARENT};
 use crate::geometry::{Aabb, Triangle};
@@ -191,8 +191,9 @@ fn object_split(
     node: &Aabb,
     centroids: &Aabb,
     nbins: usize,
+    blocks: Blocks,
 ) -> Option<ObjectSplit> {
-    let split = best_split(refs, node.area(), centroids, nbins)?;
+    let split = best_split(refs, node.area(), centroids, nbins, blocks)?;
     let (mut l, mut r) = (FBox::EMPTY, FBox::EMPTY);
     for p in refs {
         let side = if split.goes_left(p.centroid()) {
@@ -528,6 +529,7 @@ fn spatial_split(
     budget: usize,
 ) -> Option<SpatialSplit> {
     let nbins = ctx.opts.spatial_bins;
+    let blocks = ctx.opts.blocks();
     let n = refs.len();
     let axes: ArrayVec<(usize, Planes), 3> = (0..3)
         .filter_map(|axis| {
@@ -560,7 +562,10 @@ fn spatial_split(
             if p[k] <= lo || p[k] >= hi {
                 continue;
             }
-            let cost = 1.0 + (acc.area() * nl as f64 + ar * nr as f64) / area_node;
+            // (nl and nr are below the node's reference count, a u32.)
+            let cost = 1.0
+                + (acc.area() * blocks.cost(nl as u32) as f64 + ar * blocks.cost(nr as u32) as f64)
+                    / area_node;
             if best.is_none_or(|b| cost < b.cost) {
                 best = Some(SpatialSplit {
                     axis,
@@ -614,7 +619,10 @@ fn subtree(ctx: &Ctx, mut refs: Vec<PrimRef>, depth: u32, budget: usize) -> Tmp 
     let (bounds, centroids) = bounds_of(&refs);
     let leaf = |refs: Vec<PrimRef>| Tmp::Leaf(refs.iter().map(PrimRef::id).collect(), bounds);
     let max_leaf = ctx.opts.max_leaf_size;
-    if n == 1 {
+    let blocks = ctx.opts.blocks();
+    // One block is a leaf without a search, as in the SAH builder: no split
+    // costs less than 1.
+    if n == 1 || (n <= max_leaf && n <= blocks.size()) {
         return leaf(refs);
     }
     let area_node = area(&bounds);
@@ -622,7 +630,7 @@ fn subtree(ctx: &Ctx, mut refs: Vec<PrimRef>, depth: u32, budget: usize) -> Tmp 
     // The object split's search weighs areas in f32, as the SAH builder's.
     let use_sah = depth < SAH_MAX_DEPTH && area_node > 0.0 && bounds.area().is_finite();
     let object = if use_sah {
-        object_split(&refs, &bounds, &centroids, nbins)
+        object_split(&refs, &bounds, &centroids, nbins, blocks)
     } else {
         None
     };
@@ -645,7 +653,7 @@ fn subtree(ctx: &Ctx, mut refs: Vec<PrimRef>, depth: u32, budget: usize) -> Tmp 
         (None, Some(s)) => s.cost,
         (None, None) => f64::INFINITY,
     };
-    if n <= max_leaf && best_cost >= n as f64 {
+    if n <= max_leaf && best_cost >= blocks.cost(n as u32) as f64 {
         return leaf(refs);
     }
     let (left, right, axis, added) = match (object, spatial) {

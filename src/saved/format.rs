@@ -182,6 +182,11 @@ impl<'a> RecordReader<'a> {
         }
         Ok(n)
     }
+    /// Whether every byte of the record has been read: a field added at a
+    /// record's end in a later raytree is read only where it is there.
+    pub fn at_end(&self) -> bool {
+        self.at == self.bytes.len()
+    }
     /// Checks that the whole record was read.
     pub fn finish(self) -> Result<(), String> {
         if self.at != self.bytes.len() {

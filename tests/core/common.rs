@@ -133,6 +133,21 @@ impl WithAccel for Agrees<'_> {
     }
 }
 
+/// The BVH builds every structure is checked over: each builder, and the
+/// SAH and SBVH builders with leaf costs in blocks of 4 triangles
+/// ([`BuildOptions::sah_block`]), named for messages.
+pub fn build_variants() -> Vec<(String, BuildOptions)> {
+    let mut v: Vec<_> = raytree::bvh::Builder::ALL
+        .iter()
+        .map(|&b| (b.name().to_string(), BuildOptions::new(b)))
+        .collect();
+    for b in [BuildOptions::sah(), BuildOptions::sbvh()] {
+        let name = format!("{}+block4", b.builder.name());
+        v.push((name, b.with_sah_block(4)));
+    }
+    v
+}
+
 /// Every structure, and for `bvh` every traversal.
 pub fn configurations() -> Vec<(StructureKind, TraversalKind)> {
     let mut v: Vec<_> = TraversalKind::all()

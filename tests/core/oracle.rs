@@ -77,8 +77,8 @@ fn check_scene(scene: &Scene, rays: usize) {
         "{}: a poor ray set ({hits} hits)",
         scene.name
     );
-    for builder in Builder::ALL {
-        let bvh = Bvh::build(&scene.triangles, &BuildOptions::new(builder));
+    for (builder, opts) in common::build_variants() {
+        let bvh = Bvh::build(&scene.triangles, &opts);
         bvh.validate(&scene.triangles).unwrap();
         // Every structure derived from the BVH.
         for &kind in StructureKind::all() {
@@ -87,7 +87,7 @@ fn check_scene(scene: &Scene, rays: usize) {
             }
             let (built, _) =
                 Built::new(kind, TraversalKind::Stack, &bvh, scene.triangles.clone()).unwrap();
-            let what = format!("{} {}/{}", scene.name, kind.name(), builder.name());
+            let what = format!("{} {}/{builder}", scene.name, kind.name());
             built.with(Check(&oracle, &rays, what));
         }
     }
@@ -132,20 +132,79 @@ fn every_leaf_size_agrees_with_oracle() {
     let rays = common::mixed_rays(&scene, 10_000, 3);
     let oracle = Oracle::new(&scene, &rays);
     for leaf in 1..=8 {
-        for builder in Builder::ALL {
-            let bvh = Bvh::build(
-                &scene.triangles,
-                &BuildOptions::new(builder).with_max_leaf_size(leaf),
-            );
+        for (builder, opts) in common::build_variants() {
+            let bvh = Bvh::build(&scene.triangles, &opts.with_max_leaf_size(leaf));
             for &kind in StructureKind::all() {
                 if kind == StructureKind::Brute {
                     continue;
                 }
                 let (built, _) =
                     Built::new(kind, TraversalKind::Stack, &bvh, scene.triangles.clone()).unwrap();
-                let what = format!("leaf {leaf} {} {}", kind.name(), builder.name());
+                let what = format!("leaf {leaf} {} {builder}", kind.name());
                 built.with(Check(&oracle, &rays, what));
             }
+        }
+    }
+}
+
+/// References under each node of `bvh`, by node id.
+fn subtree_refs(bvh: &Bvh) -> Vec<u32> {
+    let mut refs = vec![0u32; bvh.nodes.len()];
+    // Preorder: every child's id is above its parent's.
+    for i in (0..bvh.nodes.len()).rev() {
+        refs[i] = match bvh.nodes[i].kind {
+            raytree::bvh::NodeKind::Leaf { count, .. } => count,
+            raytree::bvh::NodeKind::Inner { left, right, .. } => {
+                refs[left as usize] + refs[right as usize]
+            }
+        };
+    }
+    refs
+}
+
+/// With SAH leaf costs in blocks of `b` triangles, no node of at most `b`
+/// references is split (when the leaf size allows), leaves keep to the
+/// leaf size, the tree is valid, and where leaves may hold a block it has
+/// fewer leaves than the per-triangle build; per-triangle cost is 1 block, so `sah_block = 1`
+/// builds the same tree as the default options.
+#[test]
+fn sah_blocks_make_fuller_leaves() {
+    let scene = Scene::builtin("hairball:4000").unwrap();
+    let tris = &scene.triangles;
+    for base in [BuildOptions::sah(), BuildOptions::sbvh()] {
+        let plain = Bvh::build(tris, &base);
+        let one = Bvh::build(tris, &base.clone().with_sah_block(1));
+        assert_eq!(plain.nodes, one.nodes, "{}", base.builder.name());
+        assert_eq!(plain.prims, one.prims, "{}", base.builder.name());
+        for (block, leaf) in [(2, 8), (4, 8), (8, 8), (16, 8), (4, 2), (16, 16)] {
+            let opts = base.clone().with_sah_block(block).with_max_leaf_size(leaf);
+            let bvh = Bvh::build(tris, &opts);
+            let what = format!("{} block {block} leaf {leaf}", base.builder.name());
+            bvh.validate(tris).unwrap_or_else(|e| panic!("{what}: {e}"));
+            assert_eq!(bvh.stats.sah_block, block, "{what}");
+            let refs = subtree_refs(&bvh);
+            for (i, n) in bvh.nodes.iter().enumerate() {
+                if n.is_leaf() {
+                    assert!(refs[i] as usize <= leaf, "{what}: leaf {i} of {}", refs[i]);
+                } else {
+                    assert!(
+                        refs[i] as usize > block.min(leaf),
+                        "{what}: inner node {i} over {} references",
+                        refs[i]
+                    );
+                }
+            }
+            if leaf < block {
+                continue;
+            }
+            // Fuller leaves: fewer of them than per-triangle costs give.
+            let base_leaf = Bvh::build(tris, &base.clone().with_max_leaf_size(leaf));
+            assert!(
+                bvh.stats.leaves < base_leaf.stats.leaves,
+                "{what}: {} leaves, {} per triangle",
+                bvh.stats.leaves,
+                base_leaf.stats.leaves
+            );
         }
     }
 }

@@ -65,10 +65,10 @@ fn decode(bytes: &[u8]) -> raytree::error::Result<Saved> {
 fn round_trip(spec: &str, rays: usize) {
     let scene = Scene::builtin(spec).unwrap();
     let rays = mixed_rays(&scene, rays, 17);
-    for builder in raytree::bvh::Builder::ALL {
-        let bvh = Bvh::build(&scene.triangles, &BuildOptions::new(builder));
+    for (builder, opts) in crate::common::build_variants() {
+        let bvh = Bvh::build(&scene.triangles, &opts);
         for (s, t) in configurations() {
-            let name = format!("{spec} {}/{}/{}", builder.name(), s.name(), t.name());
+            let name = format!("{spec} {builder}/{}/{}", s.name(), t.name());
             let (built, info) = match Built::new(s, t, &bvh, scene.triangles.clone()) {
                 Ok(b) => b,
                 // A tree too deep for a traversal is refused when built, as

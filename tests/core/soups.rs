@@ -102,9 +102,9 @@ fn check(tris: Vec<Triangle>, scale: f32, seed: u64) -> Result<(), TestCaseError
     let rays = rays(&tris, scale, seed);
     let tris: Arc<[Triangle]> = tris.into();
     let oracle = BruteForce::new(tris.clone());
-    for builder in Builder::ALL {
+    for (builder, opts) in common::build_variants() {
         for leaf in [1, 4] {
-            let bvh = Bvh::build(&tris, &BuildOptions::new(builder).with_max_leaf_size(leaf));
+            let bvh = Bvh::build(&tris, &opts.clone().with_max_leaf_size(leaf));
             prop_assert!(bvh.validate(&tris).is_ok(), "{:?}", bvh.validate(&tris));
             for (s, t) in common::configurations() {
                 let (built, _) = Built::new(s, t, &bvh, tris.clone())
@@ -118,7 +118,7 @@ fn check(tris: Vec<Triangle>, scale: f32, seed: u64) -> Result<(), TestCaseError
                     "{} / {} / {} leaf {leaf}: {}",
                     s.name(),
                     t.name(),
-                    builder.name(),
+                    builder,
                     r.unwrap_err()
                 );
             }

@@ -100,9 +100,14 @@ fn run_in_pool(args: &BuildArgs) -> Result<()> {
     );
     common::say_saved(&report.scene);
     say!(
-        "bvh        {} builder, leaves of at most {}: {} nodes, depth {}, SAH cost {:.2}, built in {:.3} s",
+        "bvh        {} builder, leaves of at most {}{}: {} nodes, depth {}, SAH cost {:.2}, built in {:.3} s",
         b.builder,
         b.max_leaf_size,
+        if b.sah_block > 1 {
+            format!(", SAH leaf cost per block of {}", b.sah_block)
+        } else {
+            String::new()
+        },
         b.nodes,
         b.depth,
         b.sah_cost,

@@ -1000,6 +1000,16 @@ fn negative_numbers_get_a_message_about_the_value() {
     );
     fails(&["render", "--max-leaf", "-8"], 2, "-8 is not in 1..=255");
     fails(
+        &["render", "--sah-block", "3"],
+        2,
+        "invalid value '3' for '--sah-block <SAH_BLOCK>'",
+    );
+    fails(
+        &["bench", "peers", "--sah-block", "32"],
+        2,
+        "invalid value '32' for '--sah-block <SAH_BLOCK>'",
+    );
+    fails(
         &["render", "--implicit-limit", "-1"],
         2,
         "'-1' is not a positive number of GiB",

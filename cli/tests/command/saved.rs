@@ -175,6 +175,73 @@ fn other_options_are_refused_unless_rebuilt() {
         d,
         "--max-leaf 2",
     );
+    fails(
+        &["info", "-s", "s.rtree", "--sah-block", "4"],
+        d,
+        "--sah-block 4 (the file's BVH: 1)",
+    );
+    // A BVH built with SAH blocks keeps its block size in the file and
+    // answers as the same build from the scene.
+    let out = run(
+        &[
+            "build",
+            "-s",
+            "chess:2000",
+            "--sah-block",
+            "4",
+            "-o",
+            "b.rtree",
+        ],
+        d,
+    );
+    assert!(out.contains("SAH leaf cost per block of 4"), "{out}");
+    let out = run(&["info", "-s", "b.rtree"], d);
+    assert!(out.contains("SAH leaf cost per block of 4"), "{out}");
+    run(
+        &[
+            "trace",
+            "-s",
+            "b.rtree",
+            "--rays",
+            "r.rays",
+            "-o",
+            "hb.bin",
+            "--sah-block",
+            "4",
+        ],
+        d,
+    );
+    run(
+        &[
+            "trace",
+            "-s",
+            "chess:2000",
+            "--sah-block",
+            "4",
+            "--rays",
+            "r.rays",
+            "-o",
+            "wb.bin",
+        ],
+        d,
+    );
+    let hits = |f: &str| rayfile::decode_hits(&std::fs::read(d.join(f)).unwrap()).unwrap();
+    assert_eq!(hits("hb.bin"), hits("wb.bin"));
+    fails(
+        &[
+            "trace",
+            "-s",
+            "b.rtree",
+            "--rays",
+            "r.rays",
+            "-o",
+            "x.bin",
+            "--sah-block",
+            "1",
+        ],
+        d,
+        "--sah-block 1 (the file's BVH: 4)",
+    );
     // Asking for what the file holds is no conflict.
     run(
         &trace(&[

@@ -264,16 +264,22 @@ impl<'b> Round<'b> {
         let (sb8, sbvh_peak) = crate::meter::peak_during(|| {
             let sbvh = Bvh::build(
                 &scene.triangles,
-                &BuildOptions::new(Builder::Sbvh).with_max_leaf_size(o.build.max_leaf_size),
+                &BuildOptions::new(Builder::Sbvh)
+                    .with_max_leaf_size(o.build.max_leaf_size)
+                    .with_sah_block(o.build.sah_block),
             );
             Bvh8::from_bvh(&sbvh, tris())
         });
         let sb8: Box<dyn Contender> = Box::new(sb8?);
         let sb8_s = t.elapsed().as_secs_f64();
         let mut configs = vec![format!(
-            "raytree: {} builder, leaves of at most {} triangles (bvh8 sbvh: the SBVH builder); bvh4/bvh8/cwbvh collapsed by SAH; wide kernels on the {} SIMD path; build times include the BVH build",
+            "raytree: {} builder, leaves of at most {} triangles, SAH leaf cost per {} (bvh8 sbvh: the SBVH builder); bvh4/bvh8/cwbvh collapsed by SAH; wide kernels on the {} SIMD path; build times include the BVH build",
             o.build.builder.name(),
             o.build.max_leaf_size,
+            match o.build.sah_block {
+                1 => "triangle".to_string(),
+                b => format!("block of {b}"),
+            },
             simd::active().describe()
         )];
         let mut contenders: Vec<Entry<'b>> = vec![
