@@ -623,6 +623,8 @@ fn slice_mut<'a, T: numpy::Element>(
 impl PyAccelerator {
     #[new]
     #[pyo3(signature = (scene, structure = "bvh", traversal = None, builder = "sah", max_leaf_size = 8, threads = None, sah_block = 1))]
+    // The Python constructor's keyword arguments, one per parameter.
+    #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
         scene: &Bound<'_, PyAny>,
