@@ -660,7 +660,7 @@ impl PyAccelerator {
                 "max_leaf_size must be in 1..=255, not {max_leaf_size}"
             )));
         }
-        if ![1, 2, 4, 8, 16].contains(&sah_block) {
+        if !usize::try_from(sah_block).is_ok_and(|b| BuildOptions::SAH_BLOCKS.contains(&b)) {
             return Err(PyValueError::new_err(format!(
                 "sah_block must be 1, 2, 4, 8 or 16, not {sah_block}"
             )));

@@ -149,7 +149,7 @@ impl Blocks {
     /// Blocks of `size` triangles, a power of two (1 to 16).
     pub fn of(size: usize) -> Self {
         assert!(
-            size.is_power_of_two() && size <= 16,
+            super::BuildOptions::SAH_BLOCKS.contains(&size),
             "sah_block must be 1, 2, 4, 8 or 16"
         );
         Blocks {

@@ -99,6 +99,9 @@ pub(super) const SAH_MAX_DEPTH: u32 = 64;
 pub(super) const PARALLEL_SUBTREE: usize = 4096;
 
 impl BuildOptions {
+    /// The block sizes [`Self::sah_block`] may take.
+    pub const SAH_BLOCKS: [usize; 5] = [1, 2, 4, 8, 16];
+
     /// `builder` with leaves of at most 8 triangles, 8 SAH levels (hybrid),
     /// 32 bins per axis (16 for spatial splits), SAH costs per triangle
     /// (blocks of one), `α = 1e-5`, spatial splits

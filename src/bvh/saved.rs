@@ -10,7 +10,7 @@
 //! the loader derives them, checking that every node but the root has
 //! exactly one parent before it, and then runs [`Bvh::validate`].
 
-use super::{BuildStats, Builder, Bvh, Node, NodeKind, NO_PARENT};
+use super::{BuildOptions, BuildStats, Builder, Bvh, Node, NodeKind, NO_PARENT};
 use crate::geometry::{Aabb, Triangle};
 use crate::saved::{RecordWriter, Sections, Source};
 use rayon::prelude::*;
@@ -97,7 +97,7 @@ impl Bvh {
         let sah_cost = r.f64()?;
         let sah_block = if r.at_end() { 1 } else { r.u32()? as usize };
         r.finish()?;
-        if !(sah_block.is_power_of_two() && sah_block <= 16) {
+        if !BuildOptions::SAH_BLOCKS.contains(&sah_block) {
             return Err(format!(
                 "the BVH's SAH block size {sah_block} is not 1, 2, 4, 8 or 16"
             ));

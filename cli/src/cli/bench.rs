@@ -62,8 +62,8 @@ pub struct PeersArgs {
     build_repeats: u32,
     /// raytree's SAH leaf cost in blocks of this many triangles (1, 2, 4,
     /// 8, 16; Embree's sahBlockSize), for the SAH and the SBVH builds.
-    #[arg(long, default_value = "1", value_parser = ["1", "2", "4", "8", "16"])]
-    sah_block: String,
+    #[arg(long, default_value = "1", value_parser = common::sah_block_parser())]
+    sah_block: usize,
     /// Worker threads [default: all cores].
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
     threads: Option<u32>,
@@ -210,9 +210,7 @@ fn run_peers(a: PeersArgs) -> Result<()> {
     opts.height = a.height.map_or(opts.height, |v| v as usize);
     opts.repeats = a.repeats.map_or(opts.repeats, |v| v as usize);
     opts.build_repeats = a.build_repeats as usize;
-    opts.build = opts
-        .build
-        .with_sah_block(a.sah_block.parse().expect("clap checked it"));
+    opts.build = opts.build.with_sah_block(a.sah_block);
     let pool = thread_pool(a.threads)?;
     let machine = Machine::detect(&[pool.current_num_threads()]);
     say!("{}", machine.describe());

@@ -103,11 +103,7 @@ fn run_in_pool(args: &BuildArgs) -> Result<()> {
         "bvh        {} builder, leaves of at most {}{}: {} nodes, depth {}, SAH cost {:.2}, built in {:.3} s",
         b.builder,
         b.max_leaf_size,
-        if b.sah_block > 1 {
-            format!(", SAH leaf cost per block of {}", b.sah_block)
-        } else {
-            String::new()
-        },
+        common::sah_block_note(b.sah_block),
         b.nodes,
         b.depth,
         b.sah_cost,

@@ -40,8 +40,8 @@ pub struct SceneArgs {
     /// triangle tests and no node is split below b triangles. Fewer,
     /// fuller leaves for wide BVHs' grouped leaf tests; sah and sbvh
     /// builders [default: 1; a saved structure's own].
-    #[arg(long, value_parser = ["1", "2", "4", "8", "16"])]
-    pub sah_block: Option<String>,
+    #[arg(long, value_parser = sah_block_parser())]
+    pub sah_block: Option<usize>,
     /// Improve the built BVH by reinsertion (Bittner, Hapala and Havran
     /// 2013): the same leaves, a lower SAH cost; the costs before and after
     /// are reported.
@@ -68,9 +68,7 @@ impl SceneArgs {
 
     /// The SAH block size asked for, or 1.
     pub fn sah_block(&self) -> usize {
-        self.sah_block
-            .as_deref()
-            .map_or(1, |b| b.parse().unwrap_or(1))
+        self.sah_block.unwrap_or(1)
     }
 }
 
@@ -561,6 +559,24 @@ pub fn say_saved(r: &SceneReport) {
 
 /// A clap parser for the names of a [`Named`] type, with their
 /// descriptions in `--help`.
+/// `--sah-block`'s parser: one of [`BuildOptions::SAH_BLOCKS`], listed in
+/// `--help` and in the error.
+pub fn sah_block_parser() -> impl clap::builder::TypedValueParser<Value = usize> {
+    use clap::builder::{PossibleValuesParser, TypedValueParser};
+    PossibleValuesParser::new(["1", "2", "4", "8", "16"])
+        .map(|s| s.parse().expect("the possible values are numbers"))
+}
+
+/// What `info` and `build` add to the BVH's line for a build with SAH
+/// blocks (nothing for blocks of one).
+pub fn sah_block_note(block: usize) -> String {
+    if block > 1 {
+        format!(", SAH leaf cost per block of {block}")
+    } else {
+        String::new()
+    }
+}
+
 pub fn named<T: Named + Send + Sync>() -> impl clap::builder::TypedValueParser<Value = T> {
     use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
     PossibleValuesParser::new(

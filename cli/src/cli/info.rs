@@ -149,7 +149,7 @@ pub fn run(args: InfoArgs) -> Result<()> {
     say!(
         "bvh         {} builder, leaves of at most {}{}: {} nodes ({} inner, {} leaves), {} triangle references, depth {}, SAH cost {:.3}, {} degenerate triangles left out, built in {:.3} s",
         b.builder, b.max_leaf_size,
-        if b.sah_block > 1 { format!(", SAH leaf cost per block of {}", b.sah_block) } else { String::new() },
+        common::sah_block_note(b.sah_block),
         b.nodes, b.inner_nodes, b.leaves, b.references, b.depth, b.sah_cost, b.degenerate_triangles, b.build_seconds
     );
     if let Some(p) = b.peak_heap_bytes {

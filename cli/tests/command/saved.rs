@@ -197,48 +197,25 @@ fn other_options_are_refused_unless_rebuilt() {
     assert!(out.contains("SAH leaf cost per block of 4"), "{out}");
     let out = run(&["info", "-s", "b.rtree"], d);
     assert!(out.contains("SAH leaf cost per block of 4"), "{out}");
-    run(
-        &[
+    let traced = |scene: &'static str, out: &'static str, block: &'static str| {
+        [
             "trace",
             "-s",
-            "b.rtree",
+            scene,
             "--rays",
             "r.rays",
             "-o",
-            "hb.bin",
+            out,
             "--sah-block",
-            "4",
-        ],
-        d,
-    );
-    run(
-        &[
-            "trace",
-            "-s",
-            "chess:2000",
-            "--sah-block",
-            "4",
-            "--rays",
-            "r.rays",
-            "-o",
-            "wb.bin",
-        ],
-        d,
-    );
+            block,
+        ]
+    };
+    run(&traced("b.rtree", "hb.bin", "4"), d);
+    run(&traced("chess:2000", "wb.bin", "4"), d);
     let hits = |f: &str| rayfile::decode_hits(&std::fs::read(d.join(f)).unwrap()).unwrap();
     assert_eq!(hits("hb.bin"), hits("wb.bin"));
     fails(
-        &[
-            "trace",
-            "-s",
-            "b.rtree",
-            "--rays",
-            "r.rays",
-            "-o",
-            "x.bin",
-            "--sah-block",
-            "1",
-        ],
+        &traced("b.rtree", "x.bin", "1"),
         d,
         "--sah-block 1 (the file's BVH: 4)",
     );
