@@ -16,6 +16,7 @@ use super::leaf::{take_hit, LAST};
 use crate::geometry::{Hit, Ray, Triangle, ILL_CONDITIONED, TINY_DETERMINANT, TINY_SCALE};
 use crate::stats::{Stats, Tally};
 use glam::Vec4;
+use std::ops::{Add, Mul, Sub};
 
 /// Triangles per block.
 pub const LANES: usize = 4;
@@ -188,13 +189,13 @@ pub fn intersect_blocks<const ANY: bool, S: Stats>(
 
 /// A ray's constants for [`intersect_blocks_with`], computed once per ray
 /// rather than once per leaf: its axes in the watertight test's order, its
-/// shear and its origin on those axes, and `tmin`, in every lane.
+/// shear and its origin on those axes, and `tmin`.
 #[derive(Clone, Copy, Debug)]
 pub struct BlockRay {
     k: [usize; 3],
-    s: [Vec4; 3],
-    o: [Vec4; 3],
-    tmin: Vec4,
+    s: [f32; 3],
+    o: [f32; 3],
+    tmin: f32,
 }
 
 impl BlockRay {
@@ -202,22 +203,119 @@ impl BlockRay {
     #[inline(always)]
     pub fn new(ray: &Ray) -> Self {
         let k = ray.k.map(|k| k % 3);
-        let s = ray.shear;
         let o = ray.origin().to_array();
         BlockRay {
             k,
-            s: [Vec4::splat(s.x), Vec4::splat(s.y), Vec4::splat(s.z)],
-            o: k.map(|a| Vec4::splat(o[a])),
-            tmin: Vec4::splat(ray.tmin),
+            s: ray.shear.to_array(),
+            o: k.map(|a| o[a]),
+            tmin: ray.tmin,
         }
     }
 }
 
+/// The lanes one pass of the block test runs on: one block's four
+/// triangles ([`Vec4`]), or two consecutive blocks of a leaf as eight (the
+/// wide kernel's AVX2 and AVX-512 paths). Every operation is lane by lane,
+/// in f32, as the scalar test computes it; comparisons give bit masks (bit
+/// `l` for lane `l`, false on NaN).
+pub trait Lanes: Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> {
+    /// Blocks per pass (1 or 2).
+    const BLOCKS: usize;
+    /// Row `r` of block `i` in lanes 0–3 and, with two blocks per pass, of
+    /// block `j` in lanes 4–7.
+    fn rows(blocks: &[TriBlock], i: usize, j: usize, r: usize) -> Self;
+    /// `x` in every lane.
+    fn splat(x: f32) -> Self;
+    /// `f32::abs` of each lane.
+    fn abs(self) -> Self;
+    /// `f32::signum` of each lane.
+    fn signum(self) -> Self;
+    /// Lanes where `self < o`.
+    fn lt(self, o: Self) -> u32;
+    /// Lanes where `self > o`.
+    fn gt(self, o: Self) -> u32;
+    /// Lanes where `self <= o`.
+    fn le(self, o: Self) -> u32;
+    /// Lanes where `self >= o`.
+    fn ge(self, o: Self) -> u32;
+    /// Lanes where `self == o`.
+    fn eq(self, o: Self) -> u32;
+    /// The lanes, the first `4 · BLOCKS` meaningful.
+    fn lanes(self) -> [f32; 8];
+}
+
+impl Lanes for Vec4 {
+    const BLOCKS: usize = 1;
+    #[inline(always)]
+    fn rows(blocks: &[TriBlock], i: usize, _j: usize, r: usize) -> Self {
+        Vec4::from_array(blocks[i].v[r])
+    }
+    #[inline(always)]
+    fn splat(x: f32) -> Self {
+        Vec4::splat(x)
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        Vec4::abs(self)
+    }
+    #[inline(always)]
+    fn signum(self) -> Self {
+        Vec4::signum(self)
+    }
+    #[inline(always)]
+    fn lt(self, o: Self) -> u32 {
+        self.cmplt(o).bitmask()
+    }
+    #[inline(always)]
+    fn gt(self, o: Self) -> u32 {
+        self.cmpgt(o).bitmask()
+    }
+    #[inline(always)]
+    fn le(self, o: Self) -> u32 {
+        self.cmple(o).bitmask()
+    }
+    #[inline(always)]
+    fn ge(self, o: Self) -> u32 {
+        self.cmpge(o).bitmask()
+    }
+    #[inline(always)]
+    fn eq(self, o: Self) -> u32 {
+        self.cmpeq(o).bitmask()
+    }
+    #[inline(always)]
+    fn lanes(self) -> [f32; 8] {
+        let a = self.to_array();
+        [a[0], a[1], a[2], a[3], 0.0, 0.0, 0.0, 0.0]
+    }
+}
+
 /// [`intersect_blocks`] with the ray's constants computed beforehand
-/// (`br` is [`BlockRay::new`] of `ray`).
+/// (`br` is [`BlockRay::new`] of `ray`), one block per pass.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 pub fn intersect_blocks_with<const ANY: bool, S: Stats>(
+    br: &BlockRay,
+    blocks: &[TriBlock],
+    first: u32,
+    triangles: &[Triangle],
+    ray: &Ray,
+    tmax: &mut f32,
+    best: &mut Option<Hit>,
+    tally: &mut Tally,
+    stats: &mut S,
+) -> bool {
+    intersect_lanes::<Vec4, ANY, S>(br, blocks, first, triangles, ray, tmax, best, tally, stats)
+}
+
+/// [`intersect_blocks_with`] on lanes `L`: a pass tests `L::BLOCKS`
+/// consecutive blocks of the leaf at once (the last pass of a leaf with an
+/// odd number of blocks leaves lanes 4–7 unused). The answers, the lanes
+/// taken and the tally are those of one block per pass: a lane is a
+/// candidate against the interval at the pass's start and taken, in leaf
+/// order, against the current one.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub fn intersect_lanes<L: Lanes, const ANY: bool, S: Stats>(
     br: &BlockRay,
     blocks: &[TriBlock],
     first: u32,
@@ -235,13 +333,16 @@ pub fn intersect_blocks_with<const ANY: bool, S: Stats>(
     }
     #[cfg_attr(feature = "scalar-leaves", allow(unreachable_code))]
     let [kx, ky, kz] = br.k;
-    let [sx, sy, sz] = br.s;
-    let [ox, oy, oz] = br.o;
-    let tmin = br.tmin;
+    let [sx, sy, sz] = br.s.map(L::splat);
+    let [ox, oy, oz] = br.o.map(L::splat);
+    let tmin = L::splat(br.tmin);
     let mut i = first as usize;
     loop {
-        let blk = &blocks[i];
-        let row = |r: usize| Vec4::from_array(blk.v[r]);
+        // A block whose last lane is used and not the leaf's last is
+        // followed by another of the same leaf.
+        let more = L::BLOCKS == 2 && blocks[i].prims[LANES - 1] & LAST == 0;
+        let j = if more { i + 1 } else { i };
+        let row = |r: usize| L::rows(blocks, i, j, r);
         // Vertex coordinates relative to the origin, on the ray's axes,
         // sheared: the f32 operations of `Triangle::intersect`, in order.
         let (a_x, a_y, a_z) = (row(kx) - ox, row(ky) - oy, row(kz) - oz);
@@ -258,57 +359,58 @@ pub fn intersect_blocks_with<const ANY: bool, S: Stats>(
         let w = bx * ay - by * ax;
         let det = u + v + w;
         let m = ax.abs() + ay.abs() + a_z.abs();
-        let zero = Vec4::ZERO;
+        let zero = L::splat(0.0);
         let det_abs = det.abs();
         // The scalar test's exact paths: an edge function exactly zero, an
         // ill-conditioned triangle (the negated comparisons take NaN too).
-        let exact = u.cmpeq(zero) | v.cmpeq(zero) | w.cmpeq(zero);
+        let exact = u.eq(zero) | v.eq(zero) | w.eq(zero);
         let conditioned =
-            det_abs.cmpge(m * m * Vec4::splat(ILL_CONDITIONED)) & m.cmpge(Vec4::splat(TINY_SCALE));
+            det_abs.ge(m * m * L::splat(ILL_CONDITIONED)) & m.ge(L::splat(TINY_SCALE));
         // Edge functions of mixed signs, or a zero determinant: a miss.
-        let neg = u.cmplt(zero) | v.cmplt(zero) | w.cmplt(zero);
-        let pos = u.cmpgt(zero) | v.cmpgt(zero) | w.cmpgt(zero);
-        let outside = (neg & pos) | det.cmpeq(zero);
-        let n = blk.count();
-        // Most blocks: every used lane a certain miss (outside, decided in
-        // f32). Nothing more to compute.
-        let missed = (outside & conditioned).bitmask() & !exact.bitmask();
+        let neg = u.lt(zero) | v.lt(zero) | w.lt(zero);
+        let pos = u.gt(zero) | v.gt(zero) | w.gt(zero);
+        let outside = (neg & pos) | det.eq(zero);
+        // Lanes in use: every lane of a block followed by another, then the
+        // used lanes of the pass's last block.
+        let before = if more { LANES } else { 0 };
+        let n = before + blocks[j].count();
         let used = (1 << n) - 1;
+        let last = blocks[j].prims[n - 1 - before] & LAST != 0;
+        // Most passes: every used lane a certain miss (outside, decided in
+        // f32). Nothing more to compute.
+        let missed = outside & conditioned & !exact;
         if missed & used == used {
             tally.triangles += n as u32;
-            if blk.prims[n - 1] & LAST != 0 {
+            if last {
                 return false;
             }
-            i += 1;
+            i = j + 1;
             continue;
         }
         let t_scaled = u * (sz * a_z) + v * (sz * b_z) + w * (sz * c_z);
-        let precise = exact.bitmask() | !conditioned.bitmask();
+        let precise = exact | !conditioned;
         // Overflow, a determinant too small for 1/det, or T zero or
         // subnormal (its sign may be lost): exact paths too.
         let t_mag = t_scaled.abs();
-        let finite = det_abs.cmpge(Vec4::splat(TINY_DETERMINANT))
-            & det_abs.cmplt(Vec4::INFINITY)
-            & t_mag.cmpge(Vec4::splat(f32::MIN_POSITIVE))
-            & t_mag.cmplt(Vec4::INFINITY);
-        let precise = (precise | (!outside.bitmask() & !finite.bitmask())) & 0xf;
-        // T flipped by det's sign, against the interval at the block's start
+        let inf = L::splat(f32::INFINITY);
+        let finite = det_abs.ge(L::splat(TINY_DETERMINANT))
+            & det_abs.lt(inf)
+            & t_mag.ge(L::splat(f32::MIN_POSITIVE))
+            & t_mag.lt(inf);
+        let precise = (precise | (!outside & !finite)) & used;
+        // T flipped by det's sign, against the interval at the pass's start
         // (a lane beyond it is beyond any later, smaller one too).
         let t_abs = t_scaled * det.signum();
-        let within = t_abs.cmpge(tmin * det_abs) & t_abs.cmple(Vec4::splat(*tmax) * det_abs);
-        let candidates = (within.bitmask() & !outside.bitmask() & finite.bitmask()) & !precise;
+        let within = t_abs.ge(tmin * det_abs) & t_abs.le(L::splat(*tmax) * det_abs);
+        let candidates = (within & !outside & finite) & !precise;
         let mut todo = (candidates | precise) & used;
-        let (v, w, det, t_scaled) = (
-            v.to_array(),
-            w.to_array(),
-            det.to_array(),
-            t_scaled.to_array(),
-        );
-        let t_abs = t_abs.to_array();
+        let (v, w, det, t_scaled) = (v.lanes(), w.lanes(), det.lanes(), t_scaled.lanes());
+        let t_abs = t_abs.lanes();
         while todo != 0 {
-            let l = todo.trailing_zeros() as usize;
+            let l = todo.trailing_zeros() as usize & 7;
             todo &= todo - 1;
-            let prim = blk.prims[l] & !LAST;
+            let blk = if l < LANES { i } else { j };
+            let prim = blocks[blk].prims[l & (LANES - 1)] & !LAST;
             let hit = if precise & (1 << l) != 0 {
                 triangles[prim as usize].hit(ray, ray.tmin, *tmax, prim)
             } else {
@@ -333,10 +435,10 @@ pub fn intersect_blocks_with<const ANY: bool, S: Stats>(
             }
         }
         tally.triangles += n as u32;
-        if blk.prims[n - 1] & LAST != 0 {
+        if last {
             return false;
         }
-        i += 1;
+        i = j + 1;
     }
 }
 

@@ -23,7 +23,7 @@ use crate::geometry::aabb::slab_reciprocals;
 use crate::geometry::{Hit, Ray, Triangle};
 use crate::stats::{Stats, Tally};
 use crate::structures::shared::simd::{self, SimdPath};
-use crate::structures::shared::tri_block::{intersect_blocks_with, BlockRay, TriBlock};
+use crate::structures::shared::tri_block::{intersect_lanes, BlockRay, Lanes, TriBlock};
 use crate::structures::shared::MAX_STACK_DEPTH;
 use arrayvec::ArrayVec;
 
@@ -77,6 +77,11 @@ pub trait Isa {
     /// `s` (`q·s` is exact, so the one rounding is the addition's, on every
     /// path): a `cwbvh` node's plane row.
     fn dequantize8(p: f32, s: f32, q: &[u8; 8]) -> [f32; 8];
+
+    /// The lanes a leaf pass runs on: one block of four ([`glam::Vec4`]),
+    /// or on the paths with 8-lane vectors two blocks at once. The answers
+    /// and tallies are the same either way.
+    type Leaf: Lanes;
 }
 
 /// A wide tree as the kernel reads it.
@@ -147,6 +152,7 @@ pub fn gather<const W: usize>(
 pub struct Portable;
 
 impl Isa for Portable {
+    type Leaf = glam::Vec4;
     #[inline(always)]
     fn test<const W: usize>(r: &NodeRay, planes: &[[f32; W]; 6], tmax: f32) -> ([f32; W], u32) {
         let mut tn = [r.tmin; W];
@@ -185,6 +191,7 @@ mod x86 {
     //! does; no multiply-add is fused, so every lane's distance is the
     //! portable test's bit for bit.
     use super::{Entered, Isa, NodeRay};
+    use crate::structures::shared::tri_block::{Lanes, TriBlock};
     use std::arch::x86_64::*;
 
     /// A node's six plane rows: row `k` starts `k·stride` floats after
@@ -288,6 +295,103 @@ mod x86 {
             _mm256_maskz_compress_epi32(k, c),
             (k as u32).count_ones(),
         );
+    }
+
+    /// Eight f32 lanes in one AVX register: two leaf blocks per pass of
+    /// the block test. Made only by the `Avx2` and `Avx512` paths' leaf
+    /// tests, which run only inside `trace_avx2` and `trace_avx512`, that is
+    /// where the processor has AVX2 (`simd::active`): each intrinsic below
+    /// relies on that.
+    #[derive(Clone, Copy)]
+    pub struct Lanes8(__m256);
+
+    macro_rules! avx {
+        ($e:expr) => {
+            // SAFETY: a `Lanes8` exists only on a processor with AVX2
+            // (see its docs).
+            unsafe { $e }
+        };
+    }
+
+    impl std::ops::Add for Lanes8 {
+        type Output = Self;
+        #[inline(always)]
+        fn add(self, o: Self) -> Self {
+            Lanes8(avx!(_mm256_add_ps(self.0, o.0)))
+        }
+    }
+
+    impl std::ops::Sub for Lanes8 {
+        type Output = Self;
+        #[inline(always)]
+        fn sub(self, o: Self) -> Self {
+            Lanes8(avx!(_mm256_sub_ps(self.0, o.0)))
+        }
+    }
+
+    impl std::ops::Mul for Lanes8 {
+        type Output = Self;
+        #[inline(always)]
+        fn mul(self, o: Self) -> Self {
+            Lanes8(avx!(_mm256_mul_ps(self.0, o.0)))
+        }
+    }
+
+    impl Lanes for Lanes8 {
+        const BLOCKS: usize = 2;
+        #[inline(always)]
+        fn rows(blocks: &[TriBlock], i: usize, j: usize, r: usize) -> Self {
+            let (a, b) = (&blocks[i].v[r], &blocks[j].v[r]);
+            // SAFETY: `a` and `b` are four floats each; AVX as above.
+            Lanes8(unsafe { _mm256_loadu2_m128(b.as_ptr(), a.as_ptr()) })
+        }
+        #[inline(always)]
+        fn splat(x: f32) -> Self {
+            Lanes8(avx!(_mm256_set1_ps(x)))
+        }
+        #[inline(always)]
+        fn abs(self) -> Self {
+            Lanes8(avx!(_mm256_andnot_ps(_mm256_set1_ps(-0.0), self.0)))
+        }
+        #[inline(always)]
+        fn signum(self) -> Self {
+            // `f32::signum`: ±1 with the lane's sign, NaN kept.
+            avx!({
+                let one = _mm256_or_ps(
+                    _mm256_and_ps(self.0, _mm256_set1_ps(-0.0)),
+                    _mm256_set1_ps(1.0),
+                );
+                let nan = _mm256_cmp_ps::<_CMP_UNORD_Q>(self.0, self.0);
+                Lanes8(_mm256_blendv_ps(one, self.0, nan))
+            })
+        }
+        #[inline(always)]
+        fn lt(self, o: Self) -> u32 {
+            avx!(_mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(self.0, o.0)) as u32)
+        }
+        #[inline(always)]
+        fn gt(self, o: Self) -> u32 {
+            avx!(_mm256_movemask_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(self.0, o.0)) as u32)
+        }
+        #[inline(always)]
+        fn le(self, o: Self) -> u32 {
+            avx!(_mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(self.0, o.0)) as u32)
+        }
+        #[inline(always)]
+        fn ge(self, o: Self) -> u32 {
+            avx!(_mm256_movemask_ps(_mm256_cmp_ps::<_CMP_GE_OQ>(self.0, o.0)) as u32)
+        }
+        #[inline(always)]
+        fn eq(self, o: Self) -> u32 {
+            avx!(_mm256_movemask_ps(_mm256_cmp_ps::<_CMP_EQ_OQ>(self.0, o.0)) as u32)
+        }
+        #[inline(always)]
+        fn lanes(self) -> [f32; 8] {
+            let mut out = [0.0; 8];
+            // SAFETY: `out` holds eight floats; AVX as above.
+            unsafe { _mm256_storeu_ps(out.as_mut_ptr(), self.0) };
+            out
+        }
     }
 
     /// SSE4.1: four lanes per instruction.
@@ -460,6 +564,7 @@ mod x86 {
     }
 
     impl Isa for Sse41 {
+        type Leaf = glam::Vec4;
         #[inline(always)]
         fn test<const W: usize>(r: &NodeRay, planes: &[[f32; W]; 6], tmax: f32) -> ([f32; W], u32) {
             // SAFETY: this path runs only inside `trace_sse41`, which runs
@@ -474,6 +579,7 @@ mod x86 {
     }
 
     impl Isa for Avx2 {
+        type Leaf = Lanes8;
         #[inline(always)]
         fn test<const W: usize>(r: &NodeRay, planes: &[[f32; W]; 6], tmax: f32) -> ([f32; W], u32) {
             // SAFETY: this path runs only inside `trace_avx2`, which runs
@@ -502,6 +608,7 @@ mod x86 {
     }
 
     impl Isa for Avx512 {
+        type Leaf = Lanes8;
         #[inline(always)]
         fn test<const W: usize>(r: &NodeRay, planes: &[[f32; W]; 6], tmax: f32) -> ([f32; W], u32) {
             // SAFETY: this path runs only inside `trace_avx512`, which runs
@@ -672,7 +779,7 @@ fn trace_kernel<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool, I: Is
             stats.visit(w.canonical_id(node));
         }
         if node & LEAF != 0 {
-            if intersect_blocks_with::<ANY, S>(
+            if intersect_lanes::<I::Leaf, ANY, S>(
                 &block_ray,
                 w.blocks(),
                 node & !LEAF,
