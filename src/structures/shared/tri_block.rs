@@ -481,7 +481,7 @@ fn scalar_blocks<const ANY: bool, S: Stats>(
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::rng::Pcg32;
     use crate::stats::{HitList, NoStats};
@@ -494,6 +494,13 @@ mod tests {
     /// hit, any hit and every hit.
     #[test]
     fn blocks_answer_as_the_scalar_leaf_test() {
+        lanes_answer_as_the_scalar_leaf_test::<Vec4>();
+    }
+
+    /// The test above on lanes `L`: leaves of up to 9 triangles take up to
+    /// three blocks, so two blocks per pass meet a full pair and a last
+    /// pass of one block.
+    pub(crate) fn lanes_answer_as_the_scalar_leaf_test<L: Lanes>() {
         let mut rng = Pcg32::new(7, 3);
         let mut f = || rng.next_f32() * 2.0 - 1.0;
         let mut checked = 0;
@@ -563,7 +570,8 @@ mod tests {
                         any,
                         |tm, b, ta| {
                             if any {
-                                intersect_blocks::<true, NoStats>(
+                                intersect_lanes::<L, true, NoStats>(
+                                    &BlockRay::new(&ray),
                                     &blocks,
                                     first,
                                     &tris,
@@ -574,7 +582,8 @@ mod tests {
                                     &mut NoStats,
                                 )
                             } else {
-                                intersect_blocks::<false, NoStats>(
+                                intersect_lanes::<L, false, NoStats>(
+                                    &BlockRay::new(&ray),
                                     &blocks,
                                     first,
                                     &tris,
@@ -597,8 +606,16 @@ mod tests {
                     &index, &tris, 0, &ray, &mut tm, &mut b, &mut ta, &mut sa,
                 );
                 let (mut tm, mut b, mut ta) = (ray.tmax, None, Tally::default());
-                intersect_blocks::<false, _>(
-                    &blocks, first, &tris, &ray, &mut tm, &mut b, &mut ta, &mut sb,
+                intersect_lanes::<L, false, _>(
+                    &BlockRay::new(&ray),
+                    &blocks,
+                    first,
+                    &tris,
+                    &ray,
+                    &mut tm,
+                    &mut b,
+                    &mut ta,
+                    &mut sb,
                 );
                 assert_eq!(sa.hits, sb.hits, "case {case}: every hit");
                 checked += sa.hits.len();

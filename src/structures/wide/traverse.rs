@@ -300,8 +300,8 @@ mod x86 {
     /// Eight f32 lanes in one AVX register: two leaf blocks per pass of
     /// the block test. Made only by the `Avx2` and `Avx512` paths' leaf
     /// tests, which run only inside `trace_avx2` and `trace_avx512`, that is
-    /// where the processor has AVX2 (`simd::active`): each intrinsic below
-    /// relies on that.
+    /// where the processor has AVX2 (`simd::active`), and by a unit test
+    /// after it has detected AVX2: each intrinsic below relies on that.
     #[derive(Clone, Copy)]
     pub struct Lanes8(__m256);
 
@@ -878,5 +878,22 @@ impl<const W: usize> WideTree<W> for super::WideBvh<W> {
     }
     fn canonical_id(&self, r: u32) -> u32 {
         canonical_id(&self.node_ids, &self.leaf_ids, r)
+    }
+}
+
+#[cfg(all(test, target_arch = "x86_64"))]
+mod tests {
+    use crate::structures::shared::tri_block::tests::lanes_answer_as_the_scalar_leaf_test;
+
+    /// The AVX2 and AVX-512 paths' leaf test, two blocks per pass, answers
+    /// as the scalar leaf test (where the processor has AVX2; `Lanes8`
+    /// exists only there).
+    #[test]
+    fn block_pairs_answer_as_the_scalar_leaf_test() {
+        if !std::arch::is_x86_feature_detected!("avx2") {
+            eprintln!("skipped: no AVX2 on this processor");
+            return;
+        }
+        lanes_answer_as_the_scalar_leaf_test::<super::x86::Lanes8>();
     }
 }
