@@ -1,8 +1,11 @@
 //! Times the binary traversals on the stackless paper's CHESS workload as
 //! fixed ray sets (eye rays, then closest-hit AO rays of radius 32 from the
 //! hit points, 4×4 stratified), one thread, no counting:
-//! `cargo run --release --example paper_speed -- [scene] [traversal] [scale]`.
-//! `scene` defaults to `../shared/scenes/battlefield.obj`; `scale` divides
+//! `cargo run --release --example paper_speed -- [scene] [traversals] [scale]`.
+//! `scene` defaults to `../shared/scenes/battlefield.obj` (a scene other than
+//! the paper's CHESS is traced at 512×512 with an AO radius of 0.045 of its
+//! diagonal, as `bench stackless --preset paper` does); `traversals` is
+//! `all` or comma-separated row names (`stack-paired,sparse-paired`); `scale` divides
 //! the image's width and height (default 2: a quarter of the paper's rays).
 //! Prints each traversal's eye and AO seconds, the fastest of 3 rounds.
 //! With `RAYTREE_PHASED=1`, times instead the whole phased render at the
@@ -75,23 +78,38 @@ fn main() {
         .get(1)
         .cloned()
         .unwrap_or("../shared/scenes/battlefield.obj".into());
-    let only = args.get(2).filter(|s| *s != "all").cloned();
+    let only: Option<Vec<String>> = args
+        .get(2)
+        .filter(|s| *s != "all")
+        .map(|s| s.split(',').map(str::to_owned).collect());
     let scale: usize = args.get(3).map_or(2, |s| s.parse().unwrap());
     let mut scene = Scene::from_spec(&spec).unwrap();
-    scene.use_stackless_view();
+    // The paper's CHESS view and radius 32; any other scene at 512×512 with
+    // the preset's radius (0.045 of the diagonal), as `bench stackless
+    // --preset paper` traces it.
+    let chess = scene.use_stackless_view();
+    let (width, height, radius) = if chess {
+        (800, 300, Scene::STACKLESS_CHESS_AO_RADIUS)
+    } else {
+        (
+            512,
+            512,
+            AoSettings::RADIUS_FRACTION * scene.mesh.bounds().extent().length(),
+        )
+    };
     let bvh = Bvh::build(&scene.triangles, &BuildOptions::hybrid());
     let b = BinaryBvh::from_bvh(&bvh, scene.triangles.clone()).unwrap();
     let ao = AoSettings {
         query: AoQuery::Closest,
         sampling: Sampling::Stratified,
-        ..AoSettings::plain(16, 16, Scene::STACKLESS_CHESS_AO_RADIUS)
+        ..AoSettings::plain(16, 16, radius)
     };
     let mode = std::env::var("RAYTREE_PHASED").unwrap_or_default();
     let phased = mode == "1";
     if mode == "gen" {
         let e = EyeOnly(&b);
         for _ in 0..3 {
-            let r = raytree::render::render_ao_phased_uncounted(&e, &scene, &ao, 800, 300);
+            let r = raytree::render::render_ao_phased_uncounted(&e, &scene, &ao, width, height);
             println!(
                 "eye-only       phased eye {:.3} ao {:.3}",
                 r.eye.seconds, r.ao.seconds
@@ -102,14 +120,14 @@ fn main() {
     let (eye, aorays) = if phased {
         (Vec::new(), Vec::new())
     } else {
-        rayset::ao_workload(&scene, &b, &ao, 800 / scale, 300 / scale)
+        rayset::ao_workload(&scene, &b, &ao, width / scale, height / scale)
     };
     let eye: Vec<Ray> = eye.into_iter().map(|(r, _)| r).collect();
     eprintln!("{} eye rays, {} AO rays", eye.len(), aorays.len());
     let sp = Arc::new(SparseBvh::from_bvh(&bvh, scene.triangles.clone()).unwrap());
     let rows: Vec<_> = raytree_rows()
         .into_iter()
-        .filter(|(n, _, _)| only.as_deref().is_none_or(|o| o == *n))
+        .filter(|(n, _, _)| only.as_ref().is_none_or(|o| o.iter().any(|o| o == n)))
         .map(|(name, t, s)| {
             let built = match s {
                 1 => Built::sparse(t, sp.clone()).unwrap(),
@@ -127,7 +145,7 @@ fn main() {
         for (name, built) in &rows {
             let mut best = (f64::MAX, f64::MAX);
             for _ in 0..3 {
-                let r = built.render_ao_phased(&scene, &ao, 800, 300, false);
+                let r = built.render_ao_phased(&scene, &ao, width, height, false);
                 if r.eye.seconds + r.ao.seconds < best.0 + best.1 {
                     best = (r.eye.seconds, r.ao.seconds);
                 }

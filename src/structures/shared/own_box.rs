@@ -130,8 +130,11 @@ pub struct ChildBoxNode {
     pub link: u32,
     /// The layout's word: parent and axis (sparse layout).
     pub extra: u32,
-    /// Up to the cache line.
-    pub pad: [u32; 2],
+    /// Skip links in what would be the cache line's padding: the slots of
+    /// the ancestors 2 and 4 levels up (0 where there is none), so that
+    /// SPARSE's ascent of `k` levels takes `k/4 + (k%4)/2 + k%2` dependent
+    /// loads instead of `k` ([`crate::structures::sparse::PairedBvh`]).
+    pub skip: [u32; 2],
 }
 
 impl BinaryNode for ChildBoxNode {

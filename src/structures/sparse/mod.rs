@@ -201,6 +201,14 @@ pub trait SparseLayout: Send + Sync + 'static {
     ) -> Option<Walk<'a, ANY, Self::Node>>;
     /// The parent of slot `n` (not the root).
     fn parent(&self, n: u32) -> u32;
+    /// The ancestor `up` levels above slot `n` (`up` at most `n`'s depth).
+    #[inline(always)]
+    fn ancestor(&self, mut n: u32, up: u32) -> u32 {
+        for _ in 0..up {
+            n = self.parent(n);
+        }
+        n
+    }
     /// Bytes of the node records (the index list is the own-box layout's).
     fn node_bytes(&self) -> usize;
     /// The canonical id of slot `n` (for visit logs).

@@ -45,9 +45,7 @@ pub fn trace<L: SparseLayout, S: Stats, const ANY: bool>(
         // known before the first step, so that the loop's exit is no guess.
         let up = level_index.trailing_zeros();
         level_index >>= up;
-        for _ in 0..up {
-            node = sp.parent(node);
-        }
+        node = sp.ancestor(node, up);
         if node == 0 {
             break;
         }
