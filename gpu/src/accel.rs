@@ -93,7 +93,7 @@ fn wide_words<const W: usize>(w: &raytree::structures::WideBvh<W>) -> Vec<u32> {
     for n in w.nodes() {
         let start = words.len();
         words.extend(n.planes.iter().flatten().map(|p| p.to_bits()));
-        words.extend(n.children);
+        words.extend(n.plain_children());
         words.resize(start + stride, 0);
     }
     words

@@ -127,7 +127,10 @@ impl CwNode {
         if self.imask & (1 << k) != 0 {
             self.child_base + (self.imask as u32 & ((1 << k) - 1)).count_ones()
         } else {
-            LEAF | (self.block_base + (self.meta[k] & 0x1f) as u32)
+            // Bit 6 of a leaf's meta byte marks its second block: the
+            // reference's `PAIR` bit.
+            LEAF | ((self.meta[k] as u32 & 0x40) << 24)
+                | (self.block_base + (self.meta[k] & 0x1f) as u32)
         }
     }
 
@@ -222,6 +225,12 @@ impl CwBvh {
             return Err(Error::Limit(format!(
                 "{} BVH nodes exceed the cwbvh's 31-bit references",
                 bvh.nodes.len()
+            )));
+        }
+        if bvh.prims.len() >= super::wide::MAX_BLOCKS {
+            return Err(Error::Limit(format!(
+                "{} triangle references exceed the cwbvh's 30-bit block indices",
+                bvh.prims.len()
             )));
         }
         let plan = collapse::plan::<WIDTH>(bvh);
@@ -399,7 +408,7 @@ use bytemuck::Zeroable;
 impl WideTree<WIDTH> for CwBvh {
     #[inline(always)]
     fn root(&self) -> u32 {
-        self.root
+        super::wide::with_pair(self.root, &self.blocks)
     }
     #[inline(always)]
     fn is_empty(&self) -> bool {
@@ -426,7 +435,7 @@ impl WideTree<WIDTH> for CwBvh {
         6 * valid.count_ones()
     }
     fn canonical_id(&self, r: u32) -> u32 {
-        traverse::canonical_id(&self.node_ids, &self.leaf_ids, r)
+        traverse::canonical_id(&self.node_ids, &self.leaf_ids, super::wide::plain(r))
     }
 }
 

@@ -55,6 +55,12 @@ impl CwBvh {
         r.finish()?;
         let nodes = s.vec::<CwNode>("cwbvh.nodes")?;
         let blocks = s.vec::<TriBlock>("cwbvh.blocks")?;
+        if blocks.len() > crate::structures::wide::MAX_BLOCKS {
+            return Err(format!(
+                "cwbvh.blocks: {} blocks exceed the 30-bit block indices",
+                blocks.len()
+            ));
+        }
         let node_ids = s.vec::<u32>("cwbvh.node-ids")?;
         let leaf_ids: Vec<(u32, u32)> = s
             .vec::<[u32; 2]>("cwbvh.leaf-ids")?

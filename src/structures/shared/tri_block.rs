@@ -39,7 +39,17 @@ impl TriBlock {
     /// Lanes in use (1 to 4): unused lanes come after the used ones.
     #[inline(always)]
     pub fn count(&self) -> usize {
-        self.prims.iter().filter(|&&p| p != EMPTY).count()
+        self.used().count_ones() as usize
+    }
+
+    /// Bit `l` set for each lane `l` in use.
+    #[inline(always)]
+    pub fn used(&self) -> u32 {
+        let mut mask = 0;
+        for (l, &p) in self.prims.iter().enumerate() {
+            mask |= ((p != EMPTY) as u32) << l;
+        }
+        mask
     }
 }
 
@@ -304,7 +314,9 @@ pub fn intersect_blocks_with<const ANY: bool, S: Stats>(
     tally: &mut Tally,
     stats: &mut S,
 ) -> bool {
-    intersect_lanes::<Vec4, ANY, S>(br, blocks, first, triangles, ray, tmax, best, tally, stats)
+    intersect_lanes::<Vec4, ANY, S>(
+        br, blocks, first, false, triangles, ray, tmax, best, tally, stats,
+    )
 }
 
 /// [`intersect_blocks_with`] on lanes `L`: a pass tests `L::BLOCKS`
@@ -319,6 +331,7 @@ pub fn intersect_lanes<L: Lanes, const ANY: bool, S: Stats>(
     br: &BlockRay,
     blocks: &[TriBlock],
     first: u32,
+    pair: bool,
     triangles: &[Triangle],
     ray: &Ray,
     tmax: &mut f32,
@@ -328,7 +341,7 @@ pub fn intersect_lanes<L: Lanes, const ANY: bool, S: Stats>(
 ) -> bool {
     #[cfg(feature = "scalar-leaves")]
     {
-        let _ = br;
+        let _ = (br, pair);
         return scalar_blocks::<ANY, S>(blocks, first, triangles, ray, tmax, best, tally, stats);
     }
     #[cfg_attr(feature = "scalar-leaves", allow(unreachable_code))]
@@ -337,11 +350,25 @@ pub fn intersect_lanes<L: Lanes, const ANY: bool, S: Stats>(
     let [ox, oy, oz] = br.o.map(L::splat);
     let tmin = L::splat(br.tmin);
     let mut i = first as usize;
+    // Whether the pass's first block is followed by another of the leaf, as
+    // the caller expects it ([`pair_hint`]; after the first pass, read from
+    // the block).
+    let mut hint = pair;
     loop {
         // A block whose last lane is used and not the leaf's last is
         // followed by another of the same leaf.
         let more = L::BLOCKS == 2 && blocks[i].prims[LANES - 1] & LAST == 0;
-        let j = if more { i + 1 } else { i };
+        if L::BLOCKS == 2 && hint != more {
+            // A wrong expectation: the pass again on the right blocks.
+            hint = more;
+            continue;
+        }
+        // The pass's blocks from the expectation, which the caller had
+        // before this leaf's first block arrived from memory: the second
+        // block's rows are then loaded at once rather than after the first
+        // block's entries (which the check above confirms, in the shadow
+        // of those loads).
+        let j = if L::BLOCKS == 2 && hint { i + 1 } else { i };
         let row = |r: usize| L::rows(blocks, i, j, r);
         // Vertex coordinates relative to the origin, on the ray's axes,
         // sheared: the f32 operations of `Triangle::intersect`, in order.
@@ -372,10 +399,15 @@ pub fn intersect_lanes<L: Lanes, const ANY: bool, S: Stats>(
         let outside = (neg & pos) | det.eq(zero);
         // Lanes in use: every lane of a block followed by another, then the
         // used lanes of the pass's last block.
-        let before = if more { LANES } else { 0 };
-        let n = before + blocks[j].count();
-        let used = (1 << n) - 1;
-        let last = blocks[j].prims[n - 1 - before] & LAST != 0;
+        // The pass's last block ends the leaf where its last lane is unused
+        // (`EMPTY` has the `LAST` bit) or is the leaf's last triangle.
+        let used = if more {
+            0xf | blocks[j].used() << LANES
+        } else {
+            blocks[j].used()
+        };
+        let n = used.count_ones() as usize;
+        let last = blocks[j].prims[LANES - 1] & LAST != 0;
         // Most passes: every used lane a certain miss (outside, decided in
         // f32). Nothing more to compute.
         let missed = outside & conditioned & !exact;
@@ -385,6 +417,7 @@ pub fn intersect_lanes<L: Lanes, const ANY: bool, S: Stats>(
                 return false;
             }
             i = j + 1;
+            hint = L::BLOCKS == 2 && blocks[i].prims[LANES - 1] & LAST == 0;
             continue;
         }
         let t_scaled = u * (sz * a_z) + v * (sz * b_z) + w * (sz * c_z);
@@ -439,7 +472,16 @@ pub fn intersect_lanes<L: Lanes, const ANY: bool, S: Stats>(
             return false;
         }
         i = j + 1;
+        hint = L::BLOCKS == 2 && blocks[i].prims[LANES - 1] & LAST == 0;
     }
+}
+
+/// Whether the leaf whose blocks start at `first` has a second block: what
+/// [`intersect_lanes`] expects as `pair` (a layout keeps it beside the
+/// leaf's reference, so that the test knows it before the block is read).
+#[inline(always)]
+pub fn pair_hint(blocks: &[TriBlock], first: u32) -> bool {
+    blocks[first as usize].prims[LANES - 1] & LAST == 0
 }
 
 /// The `scalar-leaves` experiment: the blocks' triangles tested one at a
@@ -574,6 +616,7 @@ pub(crate) mod tests {
                                     &BlockRay::new(&ray),
                                     &blocks,
                                     first,
+                                    pair_hint(&blocks, first),
                                     &tris,
                                     &ray,
                                     tm,
@@ -586,6 +629,7 @@ pub(crate) mod tests {
                                     &BlockRay::new(&ray),
                                     &blocks,
                                     first,
+                                    pair_hint(&blocks, first),
                                     &tris,
                                     &ray,
                                     tm,
@@ -606,10 +650,13 @@ pub(crate) mod tests {
                     &index, &tris, 0, &ray, &mut tm, &mut b, &mut ta, &mut sa,
                 );
                 let (mut tm, mut b, mut ta) = (ray.tmax, None, Tally::default());
+                // A wrong expectation of the second block costs a retry,
+                // never an answer.
                 intersect_lanes::<L, false, _>(
                     &BlockRay::new(&ray),
                     &blocks,
                     first,
+                    !pair_hint(&blocks, first),
                     &tris,
                     &ray,
                     &mut tm,

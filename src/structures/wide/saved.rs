@@ -35,7 +35,7 @@ impl<const W: usize> WideBvh<W> {
             for row in &n.planes {
                 words.extend(row.iter().map(|p| p.to_bits()));
             }
-            words.extend_from_slice(&n.children);
+            words.extend(n.plain_children());
         }
         s.owned("wide.nodes", words);
         s.slice("wide.blocks", &self.blocks);
@@ -63,7 +63,7 @@ impl<const W: usize> WideBvh<W> {
             .into_iter()
             .map(|[a, b]| (a, b))
             .collect();
-        let nodes = s.with::<u32, _>("wide.nodes", |words| {
+        let mut nodes = s.with::<u32, _>("wide.nodes", |words| {
             if words.len() % (7 * W) != 0 {
                 return Err(format!(
                     "{what}: {} words are not whole {W}-wide nodes",
@@ -151,6 +151,16 @@ impl<const W: usize> WideBvh<W> {
             ));
         }
         leaf_ids_match(&leaf_ids, &starts, leaves, "wide.leaf-ids")?;
+        if blocks.len() > super::MAX_BLOCKS {
+            return Err(format!(
+                "wide.blocks: {} blocks exceed the 30-bit block indices",
+                blocks.len()
+            ));
+        }
+        // The leaves' references in memory carry the `PAIR` bit.
+        for n in &mut nodes {
+            n.children = n.children.map(|c| super::with_pair(c, &blocks));
+        }
         let w = WideBvh {
             nodes,
             blocks,

@@ -18,7 +18,7 @@
 //! same order, so a ray's answer, its visit order and its statistics are the
 //! same on every path.
 
-use super::{WideNode, LEAF};
+use super::{plain, with_pair, WideNode, LEAF, PAIR};
 use crate::geometry::aabb::slab_reciprocals;
 use crate::geometry::{Hit, Ray, Triangle};
 use crate::stats::{Stats, Tally};
@@ -102,7 +102,8 @@ pub trait WideTree<const W: usize> {
     /// it by value cost a copy whose wide load waited on the gather's
     /// narrow stores (a failed store forward) at every node.
     fn enter<I: Isa>(&self, node: u32, r: &NodeRay, tmax: f32, e: &mut Entered<W>) -> u32;
-    /// The canonical BVH id of reference `r` (visit logs).
+    /// The canonical BVH id of reference `r` (visit logs), with or
+    /// without its [`PAIR`] bit.
     fn canonical_id(&self, r: u32) -> u32;
 }
 
@@ -705,7 +706,7 @@ pub fn trace_on<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool>(
 }
 
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
+#[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
 fn trace_avx512<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool>(
     w: &T,
     ray: &Ray,
@@ -715,7 +716,7 @@ fn trace_avx512<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool>(
 }
 
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
+#[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
 fn trace_avx2<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool>(
     w: &T,
     ray: &Ray,
@@ -782,7 +783,8 @@ fn trace_kernel<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool, I: Is
             if intersect_lanes::<I::Leaf, ANY, S>(
                 &block_ray,
                 w.blocks(),
-                node & !LEAF,
+                node & !(LEAF | PAIR),
+                node & PAIR != 0,
                 w.triangles(),
                 ray,
                 &mut tmax,
@@ -852,7 +854,7 @@ fn trace_kernel<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool, I: Is
 impl<const W: usize> WideTree<W> for super::WideBvh<W> {
     #[inline(always)]
     fn root(&self) -> u32 {
-        self.root
+        with_pair(self.root, &self.blocks)
     }
     #[inline(always)]
     fn is_empty(&self) -> bool {
@@ -877,7 +879,7 @@ impl<const W: usize> WideTree<W> for super::WideBvh<W> {
         6 * n.child_count() as u32
     }
     fn canonical_id(&self, r: u32) -> u32 {
-        canonical_id(&self.node_ids, &self.leaf_ids, r)
+        canonical_id(&self.node_ids, &self.leaf_ids, plain(r))
     }
 }
 
