@@ -43,9 +43,9 @@ pub(crate) const LEAF: u32 = 1 << 31;
 /// Bit of a leaf's reference in a node: the leaf's first block is followed
 /// by another of the same leaf, so that the leaf test loads both blocks at
 /// once without first reading the first one's entries
-/// ([`tri_block::pair_hint`]; `hairball` eye, AO and path rays 1.04, 1.02
-/// and 1.05× as fast on the AVX-512 path). A layout's own: saved files and
-/// [`WideBvh::root`] hold references without it ([`plain`]).
+/// ([`tri_block::pair_hint`]; `bvh8` 1.02–1.06× as fast on hairball's and
+/// forest's rays: `ARCHITECTURE.md`, "Wide kernels"). A layout's own: saved
+/// files and [`WideBvh::root`] hold references without it ([`plain`]).
 pub(crate) const PAIR: u32 = 1 << 30;
 /// Leaf references hold block indices below this.
 pub(crate) const MAX_BLOCKS: usize = PAIR as usize;
