@@ -121,6 +121,23 @@ def test_agrees_with_trimesh(name, mesh):
     np.testing.assert_array_equal(ours.contains_points(points), mesh.contains(points))
 
 
+def test_sah_block_reaches_the_build_and_keeps_the_answers():
+    mesh = trimesh.creation.torus(major_radius=1.0, minor_radius=0.3)
+    origins, directions = random_rays(mesh, 500, seed=2)
+    plain = raytree.RayMeshIntersector(mesh, structure="bvh8")
+    blocks = raytree.RayMeshIntersector(mesh, structure="bvh8", sah_block=4)
+    assert plain.accelerator.info()["bvh"]["sah_block"] == 1
+    assert blocks.accelerator.info()["bvh"]["sah_block"] == 4
+    np.testing.assert_array_equal(
+        blocks.intersects_first(origins, directions), plain.intersects_first(origins, directions)
+    )
+    np.testing.assert_array_equal(
+        blocks.intersects_any(origins, directions), plain.intersects_any(origins, directions)
+    )
+    with pytest.raises(ValueError, match="sah_block must be"):
+        raytree.RayMeshIntersector(mesh, sah_block=3).intersects_any(origins, directions)
+
+
 def test_one_line_change():
     mesh = trimesh.creation.icosphere()
     origins, directions = random_rays(mesh, 200, seed=4)
