@@ -357,7 +357,7 @@ pub fn intersect_lanes<L: Lanes, const ANY: bool, S: Stats>(
     loop {
         // A block whose last lane is used and not the leaf's last is
         // followed by another of the same leaf.
-        let more = L::BLOCKS == 2 && blocks[i].prims[LANES - 1] & LAST == 0;
+        let more = L::BLOCKS == 2 && pair_hint(blocks, i as u32);
         if L::BLOCKS == 2 && hint != more {
             // A wrong expectation: the pass again on the right blocks.
             hint = more;
@@ -417,7 +417,7 @@ pub fn intersect_lanes<L: Lanes, const ANY: bool, S: Stats>(
                 return false;
             }
             i = j + 1;
-            hint = L::BLOCKS == 2 && blocks[i].prims[LANES - 1] & LAST == 0;
+            hint = L::BLOCKS == 2 && pair_hint(blocks, i as u32);
             continue;
         }
         let t_scaled = u * (sz * a_z) + v * (sz * b_z) + w * (sz * c_z);
@@ -472,7 +472,7 @@ pub fn intersect_lanes<L: Lanes, const ANY: bool, S: Stats>(
             return false;
         }
         i = j + 1;
-        hint = L::BLOCKS == 2 && blocks[i].prims[LANES - 1] & LAST == 0;
+        hint = L::BLOCKS == 2 && pair_hint(blocks, i as u32);
     }
 }
 

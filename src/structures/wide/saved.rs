@@ -57,6 +57,12 @@ impl<const W: usize> WideBvh<W> {
         let sah_cost = r.f64()?;
         r.finish()?;
         let blocks = s.vec::<TriBlock>("wide.blocks")?;
+        if blocks.len() > super::MAX_BLOCKS {
+            return Err(format!(
+                "wide.blocks: {} blocks exceed the 30-bit block indices",
+                blocks.len()
+            ));
+        }
         let node_ids = s.vec::<u32>("wide.node-ids")?;
         let leaf_ids: Vec<(u32, u32)> = s
             .vec::<[u32; 2]>("wide.leaf-ids")?
@@ -151,12 +157,6 @@ impl<const W: usize> WideBvh<W> {
             ));
         }
         leaf_ids_match(&leaf_ids, &starts, leaves, "wide.leaf-ids")?;
-        if blocks.len() > super::MAX_BLOCKS {
-            return Err(format!(
-                "wide.blocks: {} blocks exceed the 30-bit block indices",
-                blocks.len()
-            ));
-        }
         // The leaves' references in memory carry the `PAIR` bit.
         for n in &mut nodes {
             n.children = n.children.map(|c| super::with_pair(c, &blocks));
