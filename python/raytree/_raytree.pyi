@@ -81,7 +81,7 @@ class Accelerator:
         builder: str = "sah",
         max_leaf_size: int = 8,
         threads: Optional[int] = None,
-        sah_block: int = 1,
+        sah_block: Optional[int] = None,
     ) -> Accelerator: ...
     @property
     def structure(self) -> str: ...

@@ -36,7 +36,8 @@ class RayMeshIntersector:
         mesh: a ``trimesh.Trimesh``, or any object with ``vertices`` (N, 3)
             float and ``faces`` (M, 3) int.
         structure, traversal, builder, sah_block: as `raytree.Accelerator`
-            (``structure="bvh8", sah_block=4`` is the fastest on one core).
+            (``structure="bvh8"`` is the fastest on one core; its default
+            ``sah_block`` is 4).
         threads: worker threads for builds and queries (None: all cores).
         invalid_rays: ``"miss"`` (the default, as trimesh: a NaN or zero
             direction hits nothing) or ``"raise"``.
@@ -50,7 +51,7 @@ class RayMeshIntersector:
         builder: str = "sah",
         threads: Optional[int] = None,
         invalid_rays: Literal["raise", "miss"] = "miss",
-        sah_block: int = 1,
+        sah_block: Optional[int] = None,
     ) -> None:
         for attribute in ("vertices", "faces"):
             if not hasattr(mesh, attribute):

@@ -356,26 +356,39 @@ impl WithAccel for Closest<'_> {
             .into_par_iter()
             .enumerate()
             .for_each(|(c, mut o)| {
-                // Normals are gathered after the chunk is traced, in a loop
-                // of independent loads that the processor overlaps: a
-                // structure whose leaves keep their own copies of the
-                // triangles (bvh4, bvh8) never touches the scene's arrays,
-                // and each hit's normal is a cache miss.
+                // A structure whose leaves keep their own copies of the
+                // triangles (bvh4, bvh8, cwbvh) never touches the scene's
+                // arrays: it hands back the hit triangle from the leaf,
+                // still in cache, and the normal is computed at once. The
+                // others' normals are gathered after the chunk is traced, in
+                // a loop of independent loads that the processor overlaps.
+                let mut gather = false;
                 for j in 0..o.t.len() {
                     let ray = rays.ray(c * CHUNK + j, invalid);
                     let hit = match o.work.as_mut() {
-                        None => a.closest_hit(&ray, &mut NoStats),
+                        None => a.closest_hit_triangle(&ray, &mut NoStats),
                         Some(w) => {
                             let mut s = Counters::default();
-                            let hit = a.closest_hit(&ray, &mut s);
+                            let hit = a.closest_hit_triangle(&ray, &mut s);
                             w.set(j, &s);
                             hit
                         }
                     };
-                    o.set(j, hit, geometries);
+                    let normal = match hit {
+                        Some((_, Some(t))) => unit_normal(&t).to_array(),
+                        Some((_, None)) => {
+                            gather = true;
+                            [0.0; 3]
+                        }
+                        None => [0.0; 3],
+                    };
+                    o.normal[3 * j..3 * j + 3].copy_from_slice(&normal);
+                    o.set(j, hit.map(|(h, _)| h), geometries);
                 }
-                for (prim, normal) in o.prim.iter().zip(o.normal.chunks_exact_mut(3)) {
-                    normal.copy_from_slice(normals.get(*prim as usize).unwrap_or(&[0.0; 3]));
+                if gather {
+                    for (prim, normal) in o.prim.iter().zip(o.normal.chunks_exact_mut(3)) {
+                        normal.copy_from_slice(normals.get(*prim as usize).unwrap_or(&[0.0; 3]));
+                    }
                 }
             });
     }

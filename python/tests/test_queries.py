@@ -268,6 +268,11 @@ def test_info(chess):
             assert info["traversal"] is None and accel.traversal is None
         if name.startswith("dst"):
             assert info["dst"]["split_nodes"] > 0
+    # The wide trees build with SAH leaf costs per block of 4 unless told.
+    for name in ["bvh4", "bvh8", "cwbvh"]:
+        assert raytree.Accelerator(chess, name).info()["bvh"]["sah_block"] == 4
+        assert raytree.Accelerator(chess, name, sah_block=1).info()["bvh"]["sah_block"] == 1
+    assert raytree.Accelerator(chess, "bvh", sah_block=4).info()["bvh"]["sah_block"] == 4
     assert raytree.Accelerator(chess, "bvh", traversal="laine-4").traversal == "laine-4"
     assert "implicit" == raytree.Accelerator(chess, "bvh/implicit-a").info()["layout"]
     assert repr(raytree.Accelerator(chess, "bvh/hapala")).startswith('Accelerator("bvh/hapala"')

@@ -124,10 +124,12 @@ def test_agrees_with_trimesh(name, mesh):
 def test_sah_block_reaches_the_build_and_keeps_the_answers():
     mesh = trimesh.creation.torus(major_radius=1.0, minor_radius=0.3)
     origins, directions = random_rays(mesh, 500, seed=2)
-    plain = raytree.RayMeshIntersector(mesh, structure="bvh8")
-    blocks = raytree.RayMeshIntersector(mesh, structure="bvh8", sah_block=4)
+    plain = raytree.RayMeshIntersector(mesh, structure="bvh8", sah_block=1)
+    blocks = raytree.RayMeshIntersector(mesh, structure="bvh8")
     assert plain.accelerator.info()["bvh"]["sah_block"] == 1
+    # The wide trees' default: SAH leaf costs per block of 4.
     assert blocks.accelerator.info()["bvh"]["sah_block"] == 4
+    assert raytree.RayMeshIntersector(mesh).accelerator.info()["bvh"]["sah_block"] == 1
     np.testing.assert_array_equal(
         blocks.intersects_first(origins, directions), plain.intersects_first(origins, directions)
     )

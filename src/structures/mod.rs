@@ -50,7 +50,7 @@ pub use shared::{stack_capacity, MAX_STACK_DEPTH};
 pub use sparse::{PairedBvh, SparseBvh};
 pub use wide::{Bvh4, Bvh8, WideBvh};
 
-use crate::geometry::{Hit, Ray};
+use crate::geometry::{Hit, Ray, Triangle};
 use crate::stats::{HitCount, HitList, NoStats, Stats};
 
 /// What every structure answers. The statistics sink is a generic parameter,
@@ -70,6 +70,20 @@ pub trait Accel: Send + Sync {
     /// Some hit within `[ray.tmin, ray.tmax]`; the first one found ends the
     /// search.
     fn any_hit<S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit>;
+
+    /// [`Accel::closest_hit`], and the hit triangle's vertices where the
+    /// structure reads them from a copy in the leaf that gave the hit
+    /// (`bvh4`, `bvh8`, `cwbvh`: bit for bit the mesh's, from a cache line
+    /// the trace has just read, where the mesh's array would be a cache
+    /// miss per hit); `None` for the vertices elsewhere, whose callers read
+    /// the mesh.
+    fn closest_hit_triangle<S: Stats>(
+        &self,
+        ray: &Ray,
+        stats: &mut S,
+    ) -> Option<(Hit, Option<Triangle>)> {
+        self.closest_hit(ray, stats).map(|h| (h, None))
+    }
 
     /// Every hit within `[ray.tmin, ray.tmax]`, each handed to `sink`'s
     /// [`Stats::hit`] in the order the traversal finds it, which is any

@@ -15,10 +15,28 @@ fn check<A: Accel>(accel: &A, oracle: &Oracle, rays: &[Ray], what: &str) {
         .enumerate()
         .filter_map(|(i, r)| {
             let want = oracle.closest[i];
+            let triangles = &oracle.triangles;
             let oracle = &oracle.brute;
             let got = accel.closest_hit(r, &mut NoStats);
             if !common::same_closest(got, want, oracle, r) {
                 return Some(format!("ray {i} {r:?}: closest {got:?}, oracle {want:?}"));
+            }
+            // The same hit with the triangle's vertices, from the leaf where
+            // the structure keeps copies (the wide trees always do).
+            let located = accel.closest_hit_triangle(r, &mut NoStats);
+            if located.map(|(h, _)| h) != got {
+                return Some(format!(
+                    "ray {i}: closest_hit_triangle {located:?}, closest {got:?}"
+                ));
+            }
+            if let Some((h, t)) = located {
+                let wide = matches!(accel.name(), "bvh4" | "bvh8" | "cwbvh");
+                if t.is_none() && wide {
+                    return Some(format!("ray {i}: {} gave no triangle", accel.name()));
+                }
+                if t.is_some_and(|t| t != triangles[h.prim as usize]) {
+                    return Some(format!("ray {i}: triangle {t:?} is not {}'s", h.prim));
+                }
             }
             let any = accel.any_hit(r, &mut NoStats);
             if any.is_some() != want.is_some() {
@@ -44,6 +62,7 @@ fn check<A: Accel>(accel: &A, oracle: &Oracle, rays: &[Ray], what: &str) {
 /// The brute-force closest hits of a ray set, computed once per scene.
 struct Oracle {
     brute: BruteForce,
+    triangles: Vec<Triangle>,
     closest: Vec<Option<Hit>>,
 }
 
@@ -54,7 +73,11 @@ impl Oracle {
             .par_iter()
             .map(|r| brute.closest_hit(r, &mut NoStats))
             .collect();
-        Oracle { brute, closest }
+        Oracle {
+            brute,
+            triangles: scene.triangles.to_vec(),
+            closest,
+        }
     }
 }
 

@@ -455,6 +455,15 @@ impl Accel for CwBvh {
     fn any_hit<S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
         traverse::trace::<WIDTH, Self, S, true>(self, ray, stats)
     }
+
+    fn closest_hit_triangle<S: Stats>(
+        &self,
+        ray: &Ray,
+        stats: &mut S,
+    ) -> Option<(Hit, Option<Triangle>)> {
+        traverse::closest_with_triangle::<WIDTH, Self, S>(self, ray, stats)
+            .map(|(h, t)| (h, Some(t)))
+    }
 }
 
 #[cfg(test)]

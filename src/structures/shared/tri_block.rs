@@ -80,6 +80,35 @@ pub fn push_leaf(blocks: &mut Vec<TriBlock>, prims: &[u32], triangles: &[Triangl
     first
 }
 
+/// The vertices of triangle `prim` as the leaf whose first block is `first`
+/// holds them (bit for bit the mesh's, [`push_leaf`]), or `None` if that
+/// leaf does not hold it. A closest-hit query reads them here, from a leaf
+/// it has just tested, rather than from the mesh.
+pub fn leaf_triangle(blocks: &[TriBlock], first: u32, prim: u32) -> Option<Triangle> {
+    for b in &blocks[first as usize..] {
+        for l in 0..LANES {
+            let p = b.prims[l];
+            if p == EMPTY {
+                return None;
+            }
+            if p & !LAST == prim {
+                let vertex = |vi: usize| {
+                    glam::Vec3::new(b.v[3 * vi][l], b.v[3 * vi + 1][l], b.v[3 * vi + 2][l])
+                };
+                return Some(Triangle {
+                    a: vertex(0),
+                    b: vertex(1),
+                    c: vertex(2),
+                });
+            }
+            if p & LAST != 0 {
+                return None;
+            }
+        }
+    }
+    None
+}
+
 /// A sign-terminated leaf list's triangles copied into blocks
 /// ([`TriBlock`]), each leaf starting a new block, for the structures whose
 /// leaves are addressed by their position in the list (BVH, sparse,

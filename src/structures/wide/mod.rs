@@ -303,6 +303,14 @@ impl<const W: usize> Accel for WideBvh<W> {
     fn any_hit<S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
         traverse::trace::<W, Self, S, true>(self, ray, stats)
     }
+
+    fn closest_hit_triangle<S: Stats>(
+        &self,
+        ray: &Ray,
+        stats: &mut S,
+    ) -> Option<(Hit, Option<Triangle>)> {
+        traverse::closest_with_triangle::<W, Self, S>(self, ray, stats).map(|(h, t)| (h, Some(t)))
+    }
 }
 
 impl<const W: usize> WideBvh<W> {

@@ -23,7 +23,9 @@ use crate::geometry::aabb::slab_reciprocals;
 use crate::geometry::{Hit, Ray, Triangle};
 use crate::stats::{Stats, Tally};
 use crate::structures::shared::simd::{self, SimdPath};
-use crate::structures::shared::tri_block::{intersect_lanes, BlockRay, Lanes, TriBlock};
+use crate::structures::shared::tri_block::{
+    intersect_lanes, leaf_triangle, BlockRay, Lanes, TriBlock,
+};
 use crate::structures::shared::MAX_STACK_DEPTH;
 use arrayvec::ArrayVec;
 
@@ -684,55 +686,83 @@ pub fn trace_on<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool>(
     ray: &Ray,
     stats: &mut S,
 ) -> Option<Hit> {
+    dispatch::<W, T, S, ANY, false>(path, w, ray, stats).0
+}
+
+/// The closest hit on the active SIMD path and the hit triangle's vertices,
+/// read from the leaf that gave the hit (a cache line the trace has just
+/// read) rather than from the mesh; bit for bit the mesh's.
+#[inline]
+pub fn closest_with_triangle<const W: usize, T: WideTree<W>, S: Stats>(
+    w: &T,
+    ray: &Ray,
+    stats: &mut S,
+) -> Option<(Hit, Triangle)> {
+    let (hit, leaf) = dispatch::<W, T, S, false, true>(simd::active(), w, ray, stats);
+    let hit = hit?;
+    let triangle = leaf_triangle(w.blocks(), leaf, hit.prim)
+        .unwrap_or_else(|| w.triangles()[hit.prim as usize]);
+    Some((hit, triangle))
+}
+
+/// The kernel on `path`, and with `LOCATE` the first block of the leaf that
+/// gave the closest hit (0 without).
+#[inline]
+fn dispatch<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool, const LOCATE: bool>(
+    path: SimdPath,
+    w: &T,
+    ray: &Ray,
+    stats: &mut S,
+) -> (Option<Hit>, u32) {
     match path {
         #[cfg(target_arch = "x86_64")]
         SimdPath::Avx512 => {
             // SAFETY: `simd::active` and `set_active` only name paths the
             // processor supports; tests pass only supported ones.
-            unsafe { trace_avx512::<W, T, S, ANY>(w, ray, stats) }
+            unsafe { trace_avx512::<W, T, S, ANY, LOCATE>(w, ray, stats) }
         }
         #[cfg(target_arch = "x86_64")]
         SimdPath::Avx2 => {
             // SAFETY: as above, AVX2 and FMA are present.
-            unsafe { trace_avx2::<W, T, S, ANY>(w, ray, stats) }
+            unsafe { trace_avx2::<W, T, S, ANY, LOCATE>(w, ray, stats) }
         }
         #[cfg(target_arch = "x86_64")]
         SimdPath::Sse41 => {
             // SAFETY: as above, SSE4.1 is present.
-            unsafe { trace_sse41::<W, T, S, ANY>(w, ray, stats) }
+            unsafe { trace_sse41::<W, T, S, ANY, LOCATE>(w, ray, stats) }
         }
-        _ => trace_kernel::<W, T, S, ANY, Portable>(w, ray, stats),
+        _ => trace_kernel::<W, T, S, ANY, LOCATE, Portable>(w, ray, stats),
     }
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
-fn trace_avx512<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool>(
+fn trace_avx512<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool, const LOCATE: bool>(
     w: &T,
     ray: &Ray,
     stats: &mut S,
-) -> Option<Hit> {
-    trace_kernel::<W, T, S, ANY, x86::Avx512>(w, ray, stats)
+) -> (Option<Hit>, u32) {
+    trace_kernel::<W, T, S, ANY, LOCATE, x86::Avx512>(w, ray, stats)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
-fn trace_avx2<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool>(
+fn trace_avx2<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool, const LOCATE: bool>(
     w: &T,
     ray: &Ray,
     stats: &mut S,
-) -> Option<Hit> {
-    trace_kernel::<W, T, S, ANY, x86::Avx2>(w, ray, stats)
+) -> (Option<Hit>, u32) {
+    trace_kernel::<W, T, S, ANY, LOCATE, x86::Avx2>(w, ray, stats)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "sse4.1")]
-fn trace_sse41<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool>(
+fn trace_sse41<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool, const LOCATE: bool>(
     w: &T,
     ray: &Ray,
     stats: &mut S,
-) -> Option<Hit> {
-    trace_kernel::<W, T, S, ANY, x86::Sse41>(w, ray, stats)
+) -> (Option<Hit>, u32) {
+    trace_kernel::<W, T, S, ANY, LOCATE, x86::Sse41>(w, ray, stats)
 }
 
 /// Entries of the traversal stack: at most `W − 1` pending children per
@@ -741,17 +771,24 @@ fn trace_sse41<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool>(
 const STACK: usize = MAX_STACK_DEPTH * 7 + 1;
 
 #[inline(always)]
-fn trace_kernel<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool, I: Isa>(
+fn trace_kernel<
+    const W: usize,
+    T: WideTree<W>,
+    S: Stats,
+    const ANY: bool,
+    const LOCATE: bool,
+    I: Isa,
+>(
     w: &T,
     ray: &Ray,
     stats: &mut S,
-) -> Option<Hit> {
+) -> (Option<Hit>, u32) {
     debug_assert!((w.depth() as usize) * (W - 1) < STACK);
     // A negative or NaN `tmin` (set after `Ray::new`, which refuses it)
     // misses, as at the other structures' root test: the box tests are
     // conservative only from `tmin ≥ 0`.
     if w.is_empty() || !ray.has_traceable_tmin() {
-        return None;
+        return (None, 0);
     }
     // No separate test of the scene box: the root's children's boxes are
     // tested at its first visit (a one-leaf tree tests its triangles).
@@ -774,6 +811,9 @@ fn trace_kernel<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool, I: Is
     let mut stack = ArrayVec::<(u32, f32), STACK>::new();
     let mut e = Entered::<W>::new();
     let mut node = w.root();
+    // With `LOCATE`: the leaf that gave the closest hit, and that hit's
+    // triangle (`u32::MAX` before any).
+    let (mut hit_leaf, mut hit_prim) = (0, u32::MAX);
     'visit: loop {
         tally.nodes += 1;
         if S::LOGS {
@@ -793,6 +833,12 @@ fn trace_kernel<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool, I: Is
                 stats,
             ) {
                 break;
+            }
+            if LOCATE {
+                let prim = best.map_or(u32::MAX, |h| h.prim);
+                if prim != hit_prim {
+                    (hit_leaf, hit_prim) = (node & !(LEAF | PAIR), prim);
+                }
             }
         } else {
             tally.planes += w.enter::<I>(node, &r, tmax, &mut e);
@@ -848,7 +894,7 @@ fn trace_kernel<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool, I: Is
         break;
     }
     stats.add(tally);
-    best
+    (best, hit_leaf)
 }
 
 impl<const W: usize> WideTree<W> for super::WideBvh<W> {
