@@ -105,6 +105,20 @@ impl Rays<'_> {
     }
 }
 
+/// Rays `c · CHUNK ..` of chunk `c` (`len` of them) as a `Vec<Ray>`, built
+/// before any is traced: the divisions of independent rays then overlap,
+/// where built one by one between traces each ray's first box test waits
+/// on its own (5–7% of `cast_rays` on dragon.obj). A macro rather than a
+/// function: behind a call, the collect stored each ray and copied it
+/// again, and cost more than it saved (camera rays 1.09× the time).
+macro_rules! chunk_rays {
+    ($rays:expr, $c:expr, $len:expr, $invalid:expr) => {
+        (0..$len)
+            .map(|j| $rays.ray($c * CHUNK + j, $invalid))
+            .collect::<Vec<Ray>>()
+    };
+}
+
 /// The smallest index of a ray that could not be traced, shared by the
 /// tasks of a query.
 pub struct FirstInvalid(AtomicUsize);
@@ -363,13 +377,12 @@ impl WithAccel for Closest<'_> {
                 // others' normals are gathered after the chunk is traced, in
                 // a loop of independent loads that the processor overlaps.
                 let mut gather = false;
-                for j in 0..o.t.len() {
-                    let ray = rays.ray(c * CHUNK + j, invalid);
+                for (j, ray) in chunk_rays!(rays, c, o.t.len(), invalid).iter().enumerate() {
                     let hit = match o.work.as_mut() {
-                        None => a.closest_hit_triangle(&ray, &mut NoStats),
+                        None => a.closest_hit_triangle(ray, &mut NoStats),
                         Some(w) => {
                             let mut s = Counters::default();
-                            let hit = a.closest_hit_triangle(&ray, &mut s);
+                            let hit = a.closest_hit_triangle(ray, &mut s);
                             w.set(j, &s);
                             hit
                         }
@@ -438,13 +451,15 @@ impl WithAccel for Occluded<'_> {
             .into_par_iter()
             .enumerate()
             .for_each(|(c, mut o)| {
-                for j in 0..o.values.len() {
-                    let ray = rays.ray(c * CHUNK + j, invalid);
+                for (j, ray) in chunk_rays!(rays, c, o.values.len(), invalid)
+                    .iter()
+                    .enumerate()
+                {
                     o.values[j] = match o.work.as_mut() {
-                        None => a.any_hit(&ray, &mut NoStats).is_some(),
+                        None => a.any_hit(ray, &mut NoStats).is_some(),
                         Some(w) => {
                             let mut s = Counters::default();
-                            let hit = a.any_hit(&ray, &mut s).is_some();
+                            let hit = a.any_hit(ray, &mut s).is_some();
                             w.set(j, &s);
                             hit
                         }
@@ -473,14 +488,16 @@ impl WithAccel for CountHits<'_> {
             .into_par_iter()
             .enumerate()
             .for_each(|(c, mut o)| {
-                for j in 0..o.values.len() {
-                    let ray = rays.ray(c * CHUNK + j, invalid);
+                for (j, ray) in chunk_rays!(rays, c, o.values.len(), invalid)
+                    .iter()
+                    .enumerate()
+                {
                     o.values[j] = match o.work.as_mut() {
-                        None => a.count_hits(&ray),
+                        None => a.count_hits(ray),
                         Some(w) => {
                             let mut s = Counters::default();
                             let mut sink = HitCount::new(&mut s);
-                            a.all_hits(&ray, &mut sink);
+                            a.all_hits(ray, &mut sink);
                             let count = sink.count;
                             w.set(j, &s);
                             count
