@@ -35,7 +35,7 @@ use std::collections::HashMap;
 use std::sync::{Arc, Mutex, OnceLock};
 use trace::{
     Closest, ClosestOut, CountHits, FirstInvalid, Geometries, ListHits, ListOut, Occluded,
-    PerRayOut, Rays, RustBatch, Work, INVALID_ID,
+    PerRayOut, Rays, RustBatch, Slots, Work, INVALID_ID,
 };
 
 /// A core error as a Python exception: a missing file is
@@ -557,14 +557,15 @@ impl<'py> Query<'py> {
         )))
     }
 
-    /// A new zeroed array of the leading shape followed by `tail`.
+    /// A new output array of the leading shape followed by `tail`, its
+    /// elements not yet written ([`uninit_array`]).
     fn array<T: numpy::Element>(
         &self,
         py: Python<'py>,
         tail: &[usize],
     ) -> Bound<'py, PyArrayDyn<T>> {
         let dims: Vec<usize> = self.lead.iter().chain(tail).copied().collect();
-        PyArray::zeros(py, IxDyn(&dims), false)
+        uninit_array(py, &dims)
     }
 }
 
@@ -608,18 +609,48 @@ impl<'py> WorkViews<'py> {
     fn work(&mut self) -> PyResult<Work<'_>> {
         let [n, p, t] = &mut self.0;
         Ok(Work {
-            nodes: slice_mut(n)?,
-            planes: slice_mut(p)?,
-            triangles: slice_mut(t)?,
+            nodes: slots(n)?,
+            planes: slots(p)?,
+            triangles: slots(t)?,
         })
     }
 }
 
-fn slice_mut<'a, T: numpy::Element>(
+/// A new C-ordered array of shape `dims` whose elements are not written:
+/// a query's output, every element of which the query writes through
+/// [`slots`] before the array reaches Python (`trace::Slots`). Without
+/// numpy's zero fill, a serial memset before the parallel loop.
+fn uninit_array<'py, T: numpy::Element>(
+    py: Python<'py>,
+    dims: &[usize],
+) -> Bound<'py, PyArrayDyn<T>> {
+    // SAFETY: `PyArray::new` leaves the elements uninitialized, which is
+    // sound as long as nothing reads them first: Rust reaches them only as
+    // `MaybeUninit` slots (`slots`), written once each by the query, and
+    // the array is handed to Python only after the query has returned
+    // without error (on an error or a panic it is dropped unseen). The
+    // element types used (f32, u32, i64, bool) hold no references.
+    unsafe { PyArray::new(py, IxDyn(dims), false) }
+}
+
+/// The elements of an output array made by [`uninit_array`], as slots to
+/// write, for as long as the read-write borrow `a` lasts.
+fn slots<'a, T: numpy::Element>(
     a: &'a mut numpy::PyReadwriteArray<'_, T, IxDyn>,
-) -> PyResult<&'a mut [T]> {
-    a.as_slice_mut()
-        .map_err(|e| PyRuntimeError::new_err(e.to_string()))
+) -> PyResult<Slots<'a, T>> {
+    if !numpy::PyUntypedArrayMethods::is_c_contiguous(&***a) {
+        return Err(PyRuntimeError::new_err("an output array is not contiguous"));
+    }
+    let len = numpy::PyUntypedArrayMethods::len(&***a);
+    if len == 0 {
+        return Ok(&mut []);
+    }
+    let data = a.data().cast::<std::mem::MaybeUninit<T>>();
+    // SAFETY: `data` points at the array's `len` contiguous, aligned
+    // elements (checked C-contiguous, non-empty); the read-write borrow
+    // `a` gives this slice the only access to them for `'a`; a
+    // `MaybeUninit<T>` has `T`'s layout and may hold any bytes.
+    Ok(unsafe { std::slice::from_raw_parts_mut(data, len) })
 }
 
 #[pymethods]
@@ -834,11 +865,11 @@ impl PyAccelerator {
             );
             let mut views = WorkViews::new(&work);
             let out = ClosestOut {
-                t: slice_mut(&mut tw)?,
-                prim: slice_mut(&mut pw)?,
-                geom: slice_mut(&mut gw)?,
-                uv: slice_mut(&mut uw)?,
-                normal: slice_mut(&mut nw)?,
+                t: slots(&mut tw)?,
+                prim: slots(&mut pw)?,
+                geom: slots(&mut gw)?,
+                uv: slots(&mut uw)?,
+                normal: slots(&mut nw)?,
                 work: views.as_mut().map(|v| v.work()).transpose()?,
             };
             let invalid = FirstInvalid::default();
@@ -891,7 +922,7 @@ impl PyAccelerator {
             let mut vw = values.readwrite();
             let mut views = WorkViews::new(&work);
             let out = PerRayOut {
-                values: slice_mut(&mut vw)?,
+                values: slots(&mut vw)?,
                 work: views.as_mut().map(|v| v.work()).transpose()?,
             };
             let invalid = FirstInvalid::default();
@@ -942,7 +973,7 @@ impl PyAccelerator {
             let mut vw = values.readwrite();
             let mut views = WorkViews::new(&work);
             let out = PerRayOut {
-                values: slice_mut(&mut vw)?,
+                values: slots(&mut vw)?,
                 work: views.as_mut().map(|v| v.work()).transpose()?,
             };
             let invalid = FirstInvalid::default();
@@ -1022,14 +1053,14 @@ impl PyAccelerator {
             chunks
         };
         let k: usize = chunks.iter().map(|c| c.hits.len()).sum();
-        let flat = |tail: &[usize]| IxDyn(&[&[k][..], tail].concat());
-        let t = PyArray::<f32, _>::zeros(py, flat(&[]), false);
-        let prim = PyArray::<u32, _>::zeros(py, flat(&[]), false);
-        let geom = PyArray::<u32, _>::zeros(py, flat(&[]), false);
-        let uv = PyArray::<f32, _>::zeros(py, flat(&[2]), false);
-        let normal = PyArray::<f32, _>::zeros(py, flat(&[3]), false);
-        let ray_ids = PyArray::<i64, _>::zeros(py, flat(&[]), false);
-        let splits = PyArray::<i64, _>::zeros(py, IxDyn(&[q.count() + 1]), false);
+        let flat = |tail: &[usize]| [&[k][..], tail].concat();
+        let t = uninit_array::<f32>(py, &flat(&[]));
+        let prim = uninit_array::<u32>(py, &flat(&[]));
+        let geom = uninit_array::<u32>(py, &flat(&[]));
+        let uv = uninit_array::<f32>(py, &flat(&[2]));
+        let normal = uninit_array::<f32>(py, &flat(&[3]));
+        let ray_ids = uninit_array::<i64>(py, &flat(&[]));
+        let splits = uninit_array::<i64>(py, &[q.count() + 1]);
         {
             let (mut tw, mut pw, mut gw, mut uw, mut nw, mut rw, mut sw) = (
                 t.readwrite(),
@@ -1041,14 +1072,14 @@ impl PyAccelerator {
                 splits.readwrite(),
             );
             let out = ListOut {
-                t: slice_mut(&mut tw)?,
-                prim: slice_mut(&mut pw)?,
-                geom: slice_mut(&mut gw)?,
-                uv: slice_mut(&mut uw)?,
-                normal: slice_mut(&mut nw)?,
-                ray_ids: slice_mut(&mut rw)?,
+                t: slots(&mut tw)?,
+                prim: slots(&mut pw)?,
+                geom: slots(&mut gw)?,
+                uv: slots(&mut uw)?,
+                normal: slots(&mut nw)?,
+                ray_ids: slots(&mut rw)?,
             };
-            let splits = slice_mut(&mut sw)?;
+            let splits = slots(&mut sw)?;
             let (pool, normals, geometries) = (&q.pool, &self.normals, &self.geometries);
             py.detach(|| {
                 pool.install(|| trace::fill_lists(&chunks, out, splits, normals, geometries))

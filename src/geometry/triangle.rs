@@ -112,7 +112,7 @@ impl Triangle {
     #[inline(always)]
     pub fn intersect(&self, ray: &Ray, tmin: f32, tmax: f32) -> Option<(f32, f32, f32)> {
         // `& 3` into 4-wide arrays: the compiler sees the indices in range.
-        let [kx, ky, kz] = ray.k.map(|k| k & 3);
+        let [kx, ky, kz] = ray.k.map(|k| usize::from(k) & 3);
         let s = ray.shear;
         let o = ray.origin();
         let a = (self.a - o).extend(0.0).to_array();

@@ -1,7 +1,9 @@
 //! Every SIMD path this processor has runs the wide kernels (`bvh4`, `bvh8`,
 //! `cwbvh`) to the oracle's answers, and to the portable path's node
 //! sequence and statistics ray for ray: the paths differ in instruction
-//! width only.
+//! width only. The closest hit with its triangle read from the leaf
+//! (`closest_hit_triangle`, the kernel's `LOCATE` form) is checked on every
+//! path too: the same hit, the mesh's triangle, the same visits.
 
 use crate::common;
 
@@ -13,11 +15,15 @@ use raytree::structures::{simd, Bvh4, Bvh8, CwBvh, SimdPath};
 /// A wide structure traced on a chosen path.
 trait OnPath: Sync {
     fn on(&self, path: SimdPath, ray: &Ray, any: bool, log: &mut VisitLog) -> Option<Hit>;
+    fn located(&self, path: SimdPath, ray: &Ray, log: &mut VisitLog) -> Option<(Hit, Triangle)>;
 }
 
 impl<const W: usize> OnPath for raytree::structures::WideBvh<W> {
     fn on(&self, path: SimdPath, ray: &Ray, any: bool, log: &mut VisitLog) -> Option<Hit> {
         self.trace_on(path, ray, any, log).unwrap()
+    }
+    fn located(&self, path: SimdPath, ray: &Ray, log: &mut VisitLog) -> Option<(Hit, Triangle)> {
+        self.closest_hit_triangle_on(path, ray, log).unwrap()
     }
 }
 
@@ -25,9 +31,19 @@ impl OnPath for CwBvh {
     fn on(&self, path: SimdPath, ray: &Ray, any: bool, log: &mut VisitLog) -> Option<Hit> {
         self.trace_on(path, ray, any, log).unwrap()
     }
+    fn located(&self, path: SimdPath, ray: &Ray, log: &mut VisitLog) -> Option<(Hit, Triangle)> {
+        self.closest_hit_triangle_on(path, ray, log).unwrap()
+    }
 }
 
-fn check(name: &str, s: &dyn OnPath, oracle: &BruteForce, rays: &[Ray], want: &[Option<Hit>]) {
+fn check(
+    name: &str,
+    s: &dyn OnPath,
+    triangles: &[Triangle],
+    oracle: &BruteForce,
+    rays: &[Ray],
+    want: &[Option<Hit>],
+) {
     let paths = simd::supported();
     let bad: Vec<String> = rays
         .par_iter()
@@ -43,6 +59,28 @@ fn check(name: &str, s: &dyn OnPath, oracle: &BruteForce, rays: &[Ray], want: &[
                     }
                     if any && got.is_some() != want[i].is_some() {
                         return Some(format!("{p}: ray {i} any {got:?}, oracle {:?}", want[i]));
+                    }
+                    if !any {
+                        // The located form: the same hit and visits, and the
+                        // hit's triangle as the mesh holds it.
+                        let mut located_log = VisitLog::default();
+                        let located = s.located(p, r, &mut located_log);
+                        if located.map(|(h, _)| h) != got
+                            || located_log.visits != log.visits
+                            || located_log.counters != log.counters
+                        {
+                            return Some(format!(
+                                "{p}: ray {i} closest_hit_triangle {located:?}, closest {got:?}"
+                            ));
+                        }
+                        if let Some((h, t)) = located {
+                            if t != triangles[h.prim as usize] {
+                                return Some(format!(
+                                    "{p}: ray {i} leaf triangle {t:?}, mesh {:?}",
+                                    triangles[h.prim as usize]
+                                ));
+                            }
+                        }
                     }
                     match &first {
                         None => first = Some((got, log)),
@@ -88,6 +126,7 @@ fn every_simd_path_gives_the_oracles_answers_and_the_same_visits() {
             check(
                 &format!("{spec} {builder:?} bvh4"),
                 &Bvh4::from_bvh(&bvh, t()).unwrap(),
+                &scene.triangles,
                 &oracle,
                 &rays,
                 &want,
@@ -95,6 +134,7 @@ fn every_simd_path_gives_the_oracles_answers_and_the_same_visits() {
             check(
                 &format!("{spec} {builder:?} bvh8"),
                 &Bvh8::from_bvh(&bvh, t()).unwrap(),
+                &scene.triangles,
                 &oracle,
                 &rays,
                 &want,
@@ -102,6 +142,7 @@ fn every_simd_path_gives_the_oracles_answers_and_the_same_visits() {
             check(
                 &format!("{spec} {builder:?} cwbvh"),
                 &CwBvh::from_bvh(&bvh, t()).unwrap(),
+                &scene.triangles,
                 &oracle,
                 &rays,
                 &want,

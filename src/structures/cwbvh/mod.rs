@@ -401,6 +401,20 @@ impl CwBvh {
     ) -> Result<Option<Hit>> {
         traverse::trace_checked::<WIDTH, Self, S>(path, self, ray, any, stats)
     }
+
+    /// [`Accel::closest_hit_triangle`] on SIMD path `path` rather than the
+    /// active one: the closest hit and the hit triangle read from its leaf.
+    ///
+    /// # Errors
+    /// [`Error::Invalid`] if this processor cannot run `path`.
+    pub fn closest_hit_triangle_on<S: Stats>(
+        &self,
+        path: SimdPath,
+        ray: &Ray,
+        stats: &mut S,
+    ) -> Result<Option<(Hit, Triangle)>> {
+        traverse::closest_with_triangle_checked::<WIDTH, Self, S>(path, self, ray, stats)
+    }
 }
 
 use bytemuck::Zeroable;

@@ -241,7 +241,7 @@ impl BlockRay {
     /// The constants of `ray`.
     #[inline(always)]
     pub fn new(ray: &Ray) -> Self {
-        let k = ray.k.map(|k| k % 3);
+        let k = ray.k.map(|k| usize::from(k) % 3);
         let o = ray.origin().to_array();
         BlockRay {
             k,

@@ -329,6 +329,20 @@ impl<const W: usize> WideBvh<W> {
     ) -> Result<Option<Hit>> {
         traverse::trace_checked::<W, Self, S>(path, self, ray, any, stats)
     }
+
+    /// [`Accel::closest_hit_triangle`] on SIMD path `path` rather than the
+    /// active one: the closest hit and the hit triangle read from its leaf.
+    ///
+    /// # Errors
+    /// [`Error::Invalid`] if this processor cannot run `path`.
+    pub fn closest_hit_triangle_on<S: Stats>(
+        &self,
+        path: SimdPath,
+        ray: &Ray,
+        stats: &mut S,
+    ) -> Result<Option<(Hit, Triangle)>> {
+        traverse::closest_with_triangle_checked::<W, Self, S>(path, self, ray, stats)
+    }
 }
 
 #[cfg(test)]

@@ -667,6 +667,21 @@ pub fn trace_checked<const W: usize, T: WideTree<W>, S: Stats>(
     })
 }
 
+/// [`closest_with_triangle_on`], refusing a path this processor lacks.
+pub fn closest_with_triangle_checked<const W: usize, T: WideTree<W>, S: Stats>(
+    path: SimdPath,
+    w: &T,
+    ray: &Ray,
+    stats: &mut S,
+) -> crate::error::Result<Option<(Hit, Triangle)>> {
+    if !path.supported() {
+        return Err(crate::error::Error::Invalid(format!(
+            "SIMD path {path} does not run here"
+        )));
+    }
+    Ok(closest_with_triangle_on::<W, T, S>(path, w, ray, stats))
+}
+
 /// Closest hit (`ANY = false`) or any hit, on the active SIMD path.
 #[inline]
 pub fn trace<const W: usize, T: WideTree<W>, S: Stats, const ANY: bool>(
@@ -698,7 +713,20 @@ pub fn closest_with_triangle<const W: usize, T: WideTree<W>, S: Stats>(
     ray: &Ray,
     stats: &mut S,
 ) -> Option<(Hit, Triangle)> {
-    let (hit, leaf) = dispatch::<W, T, S, false, true>(simd::active(), w, ray, stats);
+    closest_with_triangle_on::<W, T, S>(simd::active(), w, ray, stats)
+}
+
+/// [`closest_with_triangle`] on `path`, which must be one this processor
+/// runs ([`SimdPath::supported`]); an unsupported path runs the portable
+/// one.
+#[inline]
+pub fn closest_with_triangle_on<const W: usize, T: WideTree<W>, S: Stats>(
+    path: SimdPath,
+    w: &T,
+    ray: &Ray,
+    stats: &mut S,
+) -> Option<(Hit, Triangle)> {
+    let (hit, leaf) = dispatch::<W, T, S, false, true>(path, w, ray, stats);
     let hit = hit?;
     let triangle = leaf_triangle(w.blocks(), leaf, hit.prim)
         .unwrap_or_else(|| w.triangles()[hit.prim as usize]);
