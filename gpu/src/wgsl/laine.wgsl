@@ -1,7 +1,11 @@
 // LAINE-k (Laine 2010; structures/sparse/laine.rs): a restart trail of one
 // bit per level (64 bits, root at bit 63) and a short stack of SHORT_K
 // entries (the oldest dropped when full); on an empty short stack the
-// traversal restarts at the root and follows the trail.
+// traversal restarts at the root and follows the trail. Short stacks below
+// 4 entries, as the CPU's kernel: a word `path` (a bit per level, set where
+// the current path takes the right child) lets a restart pass through the
+// path's nodes above the pop target's parent without testing their boxes
+// (a visit each, no plane tests), then test at that parent.
 
 const K: u32 = SHORT_K;
 
@@ -17,6 +21,7 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
         var trail = vec2u(0u, 0u);
         var level = root_level;
         var pop_level = vec2u(0u, 0u);
+        var path = vec2u(0u, 0u);
         var short: array<u32, 8>;
         var head = 0u;
         loop {
@@ -31,7 +36,9 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
                     let near = select(left, left + 1u, right_first);
                     let far = select(left + 1u, left, right_first);
                     level = u64_shr1(level);
-                    if u64_nonzero(trail & level) {
+                    let far_taken = u64_nonzero(trail & level);
+                    path = (path & ~level) | select(vec2u(0u), level, right_first != far_taken);
+                    if far_taken {
                         node = far;
                     } else {
                         node = near;
@@ -53,7 +60,9 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
                     level = u64_shr1(level);
                     if any(level != pop_level) {
                         trail = trail | level;
-                        node = left + select(0u, 1u, step_kids == KIDS_RIGHT);
+                        let right = step_kids == KIDS_RIGHT;
+                        path = (path & ~level) | select(vec2u(0u), level, right);
+                        node = left + select(0u, 1u, right);
                         continue;
                     }
                     // At the pop level with one child hit: the far child is
@@ -69,12 +78,39 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
             }
             level = trail & u64_neg(trail);
             pop_level = level;
+            path = path ^ level;
             if K > 0u && head > 0u {
                 head -= 1u;
                 node = short[head];
             } else {
                 node = 0u;
                 level = root_level;
+                if K < 4u {
+                    // Through the path above the pop target's parent.
+                    loop {
+                        let below = u64_shr1(level);
+                        if all(below == pop_level) {
+                            break;
+                        }
+                        n_nodes += 1u;
+                        let left = sp_link(node);
+                        let right = u64_nonzero(path & below);
+                        level = below;
+                        node = left + select(0u, 1u, right);
+                        if K > 0u && !u64_nonzero(trail & below) {
+                            let other = left + select(1u, 0u, right);
+                            if head < K {
+                                short[head] = other;
+                                head += 1u;
+                            } else {
+                                for (var i = 1u; i < K; i++) {
+                                    short[i - 1u] = short[i];
+                                }
+                                short[(K + 7u) % 8u] = other;
+                            }
+                        }
+                    }
+                }
             }
         }
     }

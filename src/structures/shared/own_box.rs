@@ -403,6 +403,27 @@ impl<'a, const ANY: bool, N: BinaryNode> Walk<'a, ANY, N> {
         (left, hit, tl, tr)
     }
 
+    /// Passes through inner node `node` without testing its children's
+    /// boxes (a visit, no plane tests): its left child's slot. For a
+    /// descent whose turns are already known (LAINE's restarts, whose
+    /// ancestors' boxes hold the boxes tested further down).
+    #[inline(always)]
+    pub fn pass_inner<S: Stats>(
+        &mut self,
+        node: usize,
+        children: impl FnOnce(&N) -> u32,
+        id: impl FnOnce() -> u32,
+        stats: &mut S,
+    ) -> u32 {
+        let n = &self.nodes[node];
+        debug_assert!(!n.is_leaf());
+        self.tally.nodes += 1;
+        if S::LOGS {
+            stats.visit(id());
+        }
+        children(n)
+    }
+
     /// Ends the walk: hands the tally to `stats` and returns the hit.
     #[inline(always)]
     pub fn finish<S: Stats>(self, stats: &mut S) -> Option<Hit> {

@@ -8,11 +8,17 @@
 //! The trail, level and pop level are 64 bits (root at bit 63): trees up to
 //! depth 63. Two more words of one bit per level (`path`, `one`; see
 //! [`trace`]) let a restart's descent load each next node before its box
-//! test has decided it, with the same visits and decisions as the plain
-//! walk (checked against it in the tests below): LAINE-0's kernel time
-//! 0.57x on the paired nodes and 0.63x on the own-box nodes, on the
-//! paper's CHESS rays (ARCHITECTURE.md, issue 26). Short stacks of 4 or
-//! more entries rarely restart and keep Laine's plain restart.
+//! test has decided it: LAINE-0's kernel time 0.57x on the paired nodes and
+//! 0.63x on the own-box nodes, on the paper's CHESS rays (ARCHITECTURE.md,
+//! issue 26). A restart then passes through the path's nodes above the pop
+//! target's parent without testing their boxes (each holds the boxes below
+//! it, so a test there culls nothing that the pop target's own test would
+//! not): the same hits, fewer plane tests, and where the closest hit has
+//! since culled an ancestor on the path, a restart per pending level below
+//! it instead of one (checked against a reference walk in the tests
+//! below). Hairball, one thread, kernel time over STACK's: LAINE-1
+//! 1.22-1.26 to 1.17-1.20, LAINE-0 1.54-1.57 to 1.37-1.42. Short stacks of
+//! 4 or more entries rarely restart and keep Laine's plain restart.
 
 use super::SparseLayout;
 use crate::geometry::{Hit, Ray};
@@ -29,13 +35,13 @@ const RUN_AHEAD_BELOW: usize = 4;
 ///
 /// Beside Laine's trail, level and pop level the walk keeps two more words
 /// of one bit per level: `path` (set where the current path takes the
-/// right child) and `one` (set where only one child was entered). They
-/// change no decision: a restart's descent to its pop level reads the
-/// child it will take from `path` instead of from the box test, so the
-/// next node's load does not wait for the test, and the test only
-/// confirms that its hit mask is the one the level had (both children, or
-/// the one in `path`); the first level where it is not is handed to the
-/// plain step with that test's result. Where the mask is the expected one
+/// right child) and `one` (set where only one child was entered). A
+/// restart's descent to its pop level reads the child it will take from
+/// `path`: above the pop target's parent it tests no box (a node's box
+/// holds its descendants', so the pop target's test culls whatever an
+/// ancestor's would), and at that parent the test only confirms that its
+/// hit mask is the one the level had (both children, or the one in
+/// `path`); where it is not, the plain step takes that test's result. Where the mask is the expected one
 /// the plain step would take the same child and change nothing: entry
 /// distances do not depend on the closest hit, so a level entered with
 /// both children orders them as before; `path` at the pop level is turned
@@ -82,10 +88,20 @@ pub fn trace<L: SparseLayout, S: Stats, const ANY: bool, const K: usize>(
                 continue 'visit;
             }
             loop {
-                let (left, hit, tl, tr) =
-                    w.step_inner(node as usize, BinaryNode::target, || sp.id(node), stats);
                 let below = t.level >> 1;
                 let right = t.path & below != 0;
+                if below != t.pop_level {
+                    let left =
+                        w.pass_inner(node as usize, BinaryNode::target, || sp.id(node), stats);
+                    t.level = below;
+                    node = left + right as u32;
+                    if K > 0 && t.trail & below == 0 {
+                        t.short.push(left + !right as u32);
+                    }
+                    continue;
+                }
+                let (left, hit, tl, tr) =
+                    w.step_inner(node as usize, BinaryNode::target, || sp.id(node), stats);
                 let expected = if t.one & below != 0 {
                     1 + right as u32
                 } else {
@@ -263,8 +279,13 @@ mod tests {
     use crate::structures::BinaryBvh;
     use std::sync::Arc;
 
-    /// The trail walk as Laine gives it: each restart's child read off its
-    /// box test. The reference the kernel's visits are checked against.
+    /// The trail walk as Laine gives it, the reference the kernel's visits
+    /// are checked against. Short stacks of 4 and 8: each restart descends
+    /// from the root by box tests, the trail choosing the turns. Smaller
+    /// ones (the kernel's pass-through restarts): a restart passes through
+    /// the current path's nodes from the root, untested, read from a list
+    /// of the path's node at each depth rather than from the kernel's
+    /// `path` bits, and tests only at the pop target's parent.
     fn plain<L: SparseLayout, S: Stats, const ANY: bool, const K: usize>(
         sp: &L,
         ray: &Ray,
@@ -279,7 +300,11 @@ mod tests {
         // Short stack; when full, the oldest entry is dropped.
         let mut short = [0u32; 8];
         let mut head = 0usize;
+        // The node at each depth of the current path.
+        let mut at = [0u32; 64];
+        let depth = |level: u64| level.leading_zeros() as usize;
         loop {
+            at[depth(level)] = node;
             match w.step(node as usize, BinaryNode::target, || sp.id(node), stats) {
                 Step::Inner { left, children } => match children {
                     Children::Both { right_first } => {
@@ -332,9 +357,30 @@ mod tests {
             if K > 0 && head > 0 {
                 head -= 1;
                 node = short[head];
-            } else {
+            } else if K >= 4 {
                 node = 0;
                 level = ROOT_LEVEL;
+            } else {
+                // Through the path's nodes above the pop target's parent,
+                // pushing the far child where the trail has it pending.
+                let parent = depth(pop_level) - 1;
+                for d in 0..parent {
+                    let left =
+                        w.pass_inner(at[d] as usize, BinaryNode::target, || sp.id(at[d]), stats);
+                    let next = at[d + 1];
+                    if K > 0 && trail & (ROOT_LEVEL >> (d + 1)) == 0 {
+                        let far = 2 * left + 1 - next;
+                        if head < K {
+                            short[head] = far;
+                            head += 1;
+                        } else {
+                            short.copy_within(1..K, 0);
+                            short[K - 1] = far;
+                        }
+                    }
+                }
+                node = at[parent];
+                level = pop_level << 1;
             }
         }
         w.finish(stats)
@@ -361,8 +407,9 @@ mod tests {
             .sum()
     }
 
-    /// The kernel's restarts (run ahead along `path`, confirmed by each
-    /// test's mask) visit exactly the nodes the plain trail walk visits,
+    /// The kernel's restarts (through the path's nodes untested, along
+    /// `path`, then the pop target's parent tested) visit exactly the nodes
+    /// the reference trail walk visits,
     /// count the same work and return the same hits, on both node records,
     /// every short stack size, closest and any hit.
     #[test]
