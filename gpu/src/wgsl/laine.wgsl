@@ -9,6 +9,27 @@
 
 const K: u32 = SHORT_K;
 
+// The short stack and its size.
+var<private> short: array<u32, 8>;
+var<private> head: u32;
+
+// Pushes `far` onto the short stack (none when K is 0), dropping the
+// oldest entry when it is full.
+fn push_short(far: u32) {
+    if K == 0u {
+        return;
+    }
+    if head < K {
+        short[head] = far;
+        head += 1u;
+    } else {
+        for (var i = 1u; i < K; i++) {
+            short[i - 1u] = short[i];
+        }
+        short[(K + 7u) % 8u] = far;
+    }
+}
+
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3u) {
     let id = ray_id(gid);
@@ -22,8 +43,7 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
         var level = root_level;
         var pop_level = vec2u(0u, 0u);
         var path = vec2u(0u, 0u);
-        var short: array<u32, 8>;
-        var head = 0u;
+        head = 0u;
         loop {
             let s = walk_step(node);
             if s == STEP_DONE {
@@ -42,17 +62,7 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
                         node = far;
                     } else {
                         node = near;
-                        if K > 0u {
-                            if head < K {
-                                short[head] = far;
-                                head += 1u;
-                            } else {
-                                for (var i = 1u; i < K; i++) {
-                                    short[i - 1u] = short[i];
-                                }
-                                short[(K + 7u) % 8u] = far;
-                            }
-                        }
+                        push_short(far);
                     }
                     continue;
                 }
@@ -97,17 +107,8 @@ fn main(@builtin(global_invocation_id) gid: vec3u) {
                         let right = u64_nonzero(path & below);
                         level = below;
                         node = left + select(0u, 1u, right);
-                        if K > 0u && !u64_nonzero(trail & below) {
-                            let other = left + select(1u, 0u, right);
-                            if head < K {
-                                short[head] = other;
-                                head += 1u;
-                            } else {
-                                for (var i = 1u; i < K; i++) {
-                                    short[i - 1u] = short[i];
-                                }
-                                short[(K + 7u) % 8u] = other;
-                            }
+                        if !u64_nonzero(trail & below) {
+                            push_short(left + select(1u, 0u, right));
                         }
                     }
                 }

@@ -300,6 +300,18 @@ mod tests {
         // Short stack; when full, the oldest entry is dropped.
         let mut short = [0u32; 8];
         let mut head = 0usize;
+        let push = |short: &mut [u32; 8], head: &mut usize, far: u32| {
+            if K == 0 {
+                return;
+            }
+            if *head < K {
+                short[*head] = far;
+                *head += 1;
+            } else {
+                short.copy_within(1..K, 0);
+                short[K - 1] = far;
+            }
+        };
         // The node at each depth of the current path.
         let mut at = [0u32; 64];
         let depth = |level: u64| level.leading_zeros() as usize;
@@ -318,15 +330,7 @@ mod tests {
                             node = far;
                         } else {
                             node = near;
-                            if K > 0 {
-                                if head < K {
-                                    short[head] = far;
-                                    head += 1;
-                                } else {
-                                    short.copy_within(1..K, 0);
-                                    short[K - 1] = far;
-                                }
-                            }
+                            push(&mut short, &mut head, far);
                         }
                         continue;
                     }
@@ -368,15 +372,8 @@ mod tests {
                     let left =
                         w.pass_inner(at[d] as usize, BinaryNode::target, || sp.id(at[d]), stats);
                     let next = at[d + 1];
-                    if K > 0 && trail & (ROOT_LEVEL >> (d + 1)) == 0 {
-                        let far = 2 * left + 1 - next;
-                        if head < K {
-                            short[head] = far;
-                            head += 1;
-                        } else {
-                            short.copy_within(1..K, 0);
-                            short[K - 1] = far;
-                        }
+                    if trail & (ROOT_LEVEL >> (d + 1)) == 0 {
+                        push(&mut short, &mut head, 2 * left + 1 - next);
                     }
                 }
                 node = at[parent];
