@@ -87,45 +87,39 @@ pub fn trace<L: SparseLayout, S: Stats, const ANY: bool, const K: usize>(
             if !Trail::<K>::RUN_AHEAD {
                 continue 'visit;
             }
-            loop {
+            // Through the path's nodes above the pop target's parent,
+            // untested.
+            while t.level >> 1 != t.pop_level {
                 let below = t.level >> 1;
                 let right = t.path & below != 0;
-                if below != t.pop_level {
-                    let left =
-                        w.pass_inner(node as usize, BinaryNode::target, || sp.id(node), stats);
-                    t.level = below;
-                    node = left + right as u32;
-                    if K > 0 && t.trail & below == 0 {
-                        t.short.push(left + !right as u32);
-                    }
-                    continue;
-                }
-                let (left, hit, tl, tr) =
-                    w.step_inner(node as usize, BinaryNode::target, || sp.id(node), stats);
-                let expected = if t.one & below != 0 {
-                    1 + right as u32
-                } else {
-                    3
-                };
-                if hit != expected {
-                    // The plain step's decision on this test; a pop again
-                    // when it enters no child.
-                    match t.descend(left, Children::of_mask(hit, tl, tr)) {
-                        Some(next) => {
-                            node = next;
-                            continue 'visit;
-                        }
-                        None => break,
-                    }
-                }
+                let left = w.pass_inner(node as usize, BinaryNode::target, || sp.id(node), stats);
                 t.level = below;
                 node = left + right as u32;
                 if K > 0 && t.trail & below == 0 {
                     t.short.push(left + !right as u32);
                 }
-                if below == t.pop_level {
-                    continue 'visit;
-                }
+            }
+            // The pop target's parent: its test confirms the level's mask,
+            // and the walk goes on at the pop target (the pop set its trail
+            // bit: nothing to push); otherwise the plain step decides on
+            // this test, a pop again when it enters no child.
+            let below = t.level >> 1;
+            let right = t.path & below != 0;
+            let (left, hit, tl, tr) =
+                w.step_inner(node as usize, BinaryNode::target, || sp.id(node), stats);
+            let expected = if t.one & below != 0 {
+                1 + right as u32
+            } else {
+                3
+            };
+            if hit == expected {
+                t.level = below;
+                node = left + right as u32;
+                continue 'visit;
+            }
+            if let Some(next) = t.descend(left, Children::of_mask(hit, tl, tr)) {
+                node = next;
+                continue 'visit;
             }
         }
     }

@@ -655,16 +655,23 @@ pub fn trace_checked<const W: usize, T: WideTree<W>, S: Stats>(
     any: bool,
     stats: &mut S,
 ) -> crate::error::Result<Option<Hit>> {
-    if !path.supported() {
-        return Err(crate::error::Error::Invalid(format!(
-            "SIMD path {path} does not run here"
-        )));
-    }
+    runs_here(path)?;
     Ok(if any {
         trace_on::<W, T, S, true>(path, w, ray, stats)
     } else {
         trace_on::<W, T, S, false>(path, w, ray, stats)
     })
+}
+
+/// An error unless this processor runs `path`.
+fn runs_here(path: SimdPath) -> crate::error::Result<()> {
+    if path.supported() {
+        Ok(())
+    } else {
+        Err(crate::error::Error::Invalid(format!(
+            "SIMD path {path} does not run here"
+        )))
+    }
 }
 
 /// [`closest_with_triangle_on`], refusing a path this processor lacks.
@@ -674,11 +681,7 @@ pub fn closest_with_triangle_checked<const W: usize, T: WideTree<W>, S: Stats>(
     ray: &Ray,
     stats: &mut S,
 ) -> crate::error::Result<Option<(Hit, Triangle)>> {
-    if !path.supported() {
-        return Err(crate::error::Error::Invalid(format!(
-            "SIMD path {path} does not run here"
-        )));
-    }
+    runs_here(path)?;
     Ok(closest_with_triangle_on::<W, T, S>(path, w, ray, stats))
 }
 
