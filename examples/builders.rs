@@ -49,7 +49,7 @@ struct Variant {
     optimize: bool,
 }
 
-const VARIANTS: [Variant; 5] = [
+const VARIANTS: [Variant; 6] = [
     Variant {
         name: "sah",
         builder: Builder::Sah,
@@ -63,6 +63,11 @@ const VARIANTS: [Variant; 5] = [
     Variant {
         name: "sbvh",
         builder: Builder::Sbvh,
+        optimize: false,
+    },
+    Variant {
+        name: "lbvh",
+        builder: Builder::Lbvh,
         optimize: false,
     },
     Variant {

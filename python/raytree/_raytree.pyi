@@ -17,7 +17,7 @@ INVALID_ID: int
 STRUCTURES: tuple[str, ...]
 #: Traversal names (for "bvh"): stack, implicit-a, implicit-b, sparse, hapala, laine-0/1/2/4/8.
 TRAVERSALS: tuple[str, ...]
-#: Builder names: sah, hybrid, sbvh.
+#: Builder names: sah, hybrid, sbvh, lbvh.
 BUILDERS: tuple[str, ...]
 __version__: str
 __all__ = ["Accelerator", "BUILDERS", "INVALID_ID", "STRUCTURES", "Scene", "TRAVERSALS", "__version__"]

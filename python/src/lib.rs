@@ -413,7 +413,7 @@ impl PyScene {
 /// A numpy uint32 array of any shape.
 type U32Array<'py> = Bound<'py, PyArrayDyn<u32>>;
 
-/// `"sah"`, `"hybrid"` or `"sbvh"`.
+/// `"sah"`, `"hybrid"`, `"sbvh"` or `"lbvh"`.
 fn parse_builder(name: &str) -> PyResult<Builder> {
     Builder::ALL
         .into_iter()
@@ -449,13 +449,15 @@ fn parse_builder(name: &str) -> PyResult<Builder> {
 ///     builder: ``"sah"`` (binned SAH), ``"hybrid"`` (SAH for the top
 ///         8 levels, then median splits: the stackless paper's tree) or
 ///         ``"sbvh"`` (binned SAH with spatial splits: a triangle may sit
-///         in several leaves).
+///         in several leaves) or ``"lbvh"`` (a linear BVH: Morton order,
+///         leaves by SAH; the fastest build, trees of higher SAH cost).
 ///     max_leaf_size: most triangles per BVH leaf, 1..=255.
 ///     threads: worker threads for the build (None or 0: all cores).
 ///     sah_block: 1, 2, 4, 8 or 16: the SAH counts a leaf of n triangles
 ///         as ceil(n / sah_block) tests and splits no node of at most
-///         sah_block triangles (Embree's sahBlockSize). Builders ``"sah"``
-///         and ``"sbvh"``, and ``"hybrid"``'s SAH levels. None (the
+///         sah_block triangles (Embree's sahBlockSize). Builders ``"sah"``,
+///         ``"sbvh"`` and ``"lbvh"`` (its leaves), and ``"hybrid"``'s SAH
+///         levels. None (the
 ///         default): 4 for ``"bvh4"``, ``"bvh8"`` and ``"cwbvh"``, whose
 ///         leaves test four triangles at a time (the fastest trees on one
 ///         core), 1 for the others (the trees the papers' tables use; the

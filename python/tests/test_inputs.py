@@ -195,8 +195,8 @@ def test_build_errors(chess):
         raytree.Accelerator(chess, "dst", traversal="sparse")
     with pytest.raises(ValueError, match="given twice"):
         raytree.Accelerator(chess, "bvh/sparse", traversal="hapala")
-    with pytest.raises(ValueError, match=r"unknown builder 'lbvh' \(known: sah, hybrid, sbvh\)"):
-        raytree.Accelerator(chess, builder="lbvh")
+    with pytest.raises(ValueError, match=r"unknown builder 'ploc' \(known: sah, hybrid, sbvh, lbvh\)"):
+        raytree.Accelerator(chess, builder="ploc")
     for size in (0, 256):
         with pytest.raises(ValueError, match=r"max_leaf_size must be in 1..=255"):
             raytree.Accelerator(chess, max_leaf_size=size)
@@ -307,6 +307,6 @@ def test_names():
     assert raytree.STRUCTURES[0] == "bvh" and raytree.STRUCTURES[-1] == "brute"
     assert {"dst", "dst-similar", "bih", "htree", "cbvh", "bvh4", "bvh8"} <= set(raytree.STRUCTURES)
     assert "laine-4" in raytree.TRAVERSALS and raytree.TRAVERSALS[0] == "stack"
-    assert raytree.BUILDERS == ("sah", "hybrid", "sbvh")
+    assert raytree.BUILDERS == ("sah", "hybrid", "sbvh", "lbvh")
     assert raytree.INVALID_ID == 0xFFFFFFFF
     assert sys.modules["raytree._raytree"].__version__ == raytree.__version__

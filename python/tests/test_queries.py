@@ -27,7 +27,7 @@ def assert_same_lists(got: dict, want: dict, what: str) -> None:
         np.testing.assert_array_equal(got[key], want[key], err_msg=f"{what}: {key}")
 
 
-@pytest.mark.parametrize("builder", ["sah", "hybrid", "sbvh"])
+@pytest.mark.parametrize("builder", ["sah", "hybrid", "sbvh", "lbvh"])
 @pytest.mark.parametrize("scene_name", ["chess", "soup"])
 def test_every_structure_agrees_with_the_oracle(scene_name, builder, request):
     scene = request.getfixturevalue(scene_name)

@@ -21,19 +21,26 @@ pub enum Builder {
     /// a triangle may be referenced by several leaves, each with the box of
     /// its part (`bvh::sbvh`).
     Sbvh,
+    /// A linear BVH (Lauterbach et al. 2009, Karras 2012): triangles sorted
+    /// along a Morton curve of their centroids, each range split where its
+    /// codes first differ, subtrees of at most `max_leaf_size` triangles
+    /// made leaves where the SAH prefers them (`bvh::lbvh`). The fast build
+    /// for scenes that change every frame; trees of higher SAH cost.
+    Lbvh,
 }
 
 impl Builder {
     /// Every builder.
-    pub const ALL: [Builder; 3] = [Builder::Sah, Builder::Hybrid, Builder::Sbvh];
+    pub const ALL: [Builder; 4] = [Builder::Sah, Builder::Hybrid, Builder::Sbvh, Builder::Lbvh];
 
-    /// `"sah"`, `"hybrid"` or `"sbvh"`, as serialized and reported in
+    /// `"sah"`, `"hybrid"`, `"sbvh"` or `"lbvh"`, as serialized and reported in
     /// [`super::BuildStats`].
     pub fn name(self) -> &'static str {
         match self {
             Builder::Sah => "sah",
             Builder::Hybrid => "hybrid",
             Builder::Sbvh => "sbvh",
+            Builder::Lbvh => "lbvh",
         }
     }
 }
@@ -179,7 +186,7 @@ impl Ctx<'_> {
         let max_leaf = self.opts.max_leaf_size as f64;
         let per_leaf = match self.opts.builder {
             Builder::Hybrid => (max_leaf / 2.0).floor().max(1.0),
-            Builder::Sah | Builder::Sbvh => max_leaf.min(1.6),
+            Builder::Sah | Builder::Sbvh | Builder::Lbvh => max_leaf.min(1.6),
         };
         ((2.0 * n as f64 / per_leaf) as usize + 1).min(2 * n.max(1) - 1)
     }
@@ -215,7 +222,11 @@ pub(super) fn build(triangles: &[Triangle], opts: &BuildOptions) -> Bvh {
         } else {
             0
         };
-        binned(&Ctx { opts, spawn_depth }, refs)
+        if opts.builder == Builder::Lbvh {
+            super::lbvh::build(refs, opts, spawn_depth)
+        } else {
+            binned(&Ctx { opts, spawn_depth }, refs)
+        }
     };
     finish(nodes, prims, opts, degenerate, start)
 }
@@ -280,7 +291,7 @@ fn finish(
 }
 
 /// The box and the centroids' box of `refs`.
-fn bounds_of(refs: &[PrimRef]) -> (Aabb, Aabb) {
+pub(super) fn bounds_of(refs: &[PrimRef]) -> (Aabb, Aabb) {
     let one = |mut s: Sides, r: &PrimRef| {
         s.add(r, true);
         s
@@ -327,7 +338,7 @@ fn subtree(
     };
     let max_leaf = ctx.opts.max_leaf_size;
     let use_sah = match ctx.opts.builder {
-        Builder::Sah | Builder::Sbvh => depth < SAH_MAX_DEPTH,
+        Builder::Sah | Builder::Sbvh | Builder::Lbvh => depth < SAH_MAX_DEPTH,
         Builder::Hybrid => depth < ctx.opts.sah_levels.min(SAH_MAX_DEPTH),
     };
     let blocks = ctx.opts.blocks();
@@ -395,23 +406,7 @@ fn subtree(
                 )
             },
         );
-        let offset = nodes.len() as u32;
-        nodes.extend(theirs.into_iter().map(|mut node| {
-            node.parent = if node.parent == NO_PARENT {
-                id
-            } else {
-                node.parent + offset
-            };
-            if let NodeKind::Inner { left, right, axis } = node.kind {
-                node.kind = NodeKind::Inner {
-                    left: left + offset,
-                    right: right + offset,
-                    axis,
-                };
-            }
-            node
-        }));
-        offset
+        append_subtree(nodes, theirs, id)
     } else {
         subtree(ctx, l, sl, first, depth + 1, lb, id, nodes);
         let right = nodes.len() as u32;
@@ -424,6 +419,29 @@ fn subtree(
     {
         *r = right;
     }
+}
+
+/// Appends `theirs`, a subtree built into a list of its own (its root's
+/// parent [`NO_PARENT`], its links indices into that list), to `nodes` as
+/// the child of node `parent`; returns the index its root gets.
+pub(super) fn append_subtree(nodes: &mut Vec<Node>, theirs: Vec<Node>, parent: u32) -> u32 {
+    let offset = nodes.len() as u32;
+    nodes.extend(theirs.into_iter().map(|mut node| {
+        node.parent = if node.parent == NO_PARENT {
+            parent
+        } else {
+            node.parent + offset
+        };
+        if let NodeKind::Inner { left, right, axis } = node.kind {
+            node.kind = NodeKind::Inner {
+                left: left + offset,
+                right: right + offset,
+                axis,
+            };
+        }
+        node
+    }));
+    offset
 }
 
 /// Nodes of at least this many triangles are partitioned in parallel.

@@ -3,13 +3,14 @@
 //! Nodes are stored in depth-first preorder: the root is node 0 and an inner
 //! node's left child directly follows it. Leaves hold ranges of
 //! [`Bvh::prims`], which lists mesh triangle indices. Degenerate triangles are
-//! left out: they can never be hit. The `sah` and `hybrid` builders list each
+//! left out: they can never be hit. The `sah`, `hybrid` and `lbvh` builders list each
 //! triangle once; `sbvh` (spatial splits, [`Builder::Sbvh`]) may list a
 //! triangle in several leaves, each leaf's box then bounding only the part of
 //! the triangle it holds.
 
 mod binning;
 mod build;
+mod lbvh;
 mod node;
 mod optimize;
 mod saved;
@@ -25,7 +26,8 @@ use serde::Serialize;
 /// What a build reports.
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct BuildStats {
-    /// [`Builder::name`] of the builder used: `"sah"`, `"hybrid"` or `"sbvh"`.
+    /// [`Builder::name`] of the builder used: `"sah"`, `"hybrid"`, `"sbvh"`
+    /// or `"lbvh"`.
     pub builder: String,
     /// [`BuildOptions::max_leaf_size`] of the build.
     pub max_leaf_size: usize,

@@ -134,14 +134,18 @@ impl WithAccel for Agrees<'_> {
 }
 
 /// The BVH builds every structure is checked over: each builder, and the
-/// SAH and SBVH builders with leaf costs in blocks of 4 triangles
+/// SAH, SBVH and LBVH builders with leaf costs in blocks of 4 triangles
 /// ([`BuildOptions::sah_block`]), named for messages.
 pub fn build_variants() -> Vec<(String, BuildOptions)> {
     let mut v: Vec<_> = raytree::bvh::Builder::ALL
         .iter()
         .map(|&b| (b.name().to_string(), BuildOptions::new(b)))
         .collect();
-    for b in [BuildOptions::sah(), BuildOptions::sbvh()] {
+    for b in [
+        BuildOptions::sah(),
+        BuildOptions::sbvh(),
+        BuildOptions::new(raytree::bvh::Builder::Lbvh),
+    ] {
         let name = format!("{}+block4", b.builder.name());
         v.push((name, b.with_sah_block(4)));
     }

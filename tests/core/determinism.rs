@@ -64,6 +64,31 @@ fn images_are_identical_for_every_structure_traversal_and_thread_count() {
     }
 }
 
+/// Every builder's tree is the same on 1, 2 and 3 threads, on a scene large
+/// enough for subtrees to be built on other threads (more than 4096
+/// triangles below the top levels).
+#[test]
+fn trees_do_not_depend_on_the_thread_count() {
+    let scene = Scene::builtin("hairball:30000").unwrap();
+    for (builder, opts) in crate::common::build_variants() {
+        let build = || Bvh::build(&scene.triangles, &opts);
+        let one = pool(1).install(build);
+        one.validate(&scene.triangles)
+            .unwrap_or_else(|e| panic!("{builder}: {e}"));
+        for threads in [2, 3] {
+            let other = pool(threads).install(build);
+            assert!(
+                one.nodes == other.nodes,
+                "{builder}: nodes differ on {threads} threads"
+            );
+            assert_eq!(
+                one.prims, other.prims,
+                "{builder}: order differs on {threads} threads"
+            );
+        }
+    }
+}
+
 /// Both renders of one structure: counted, then uncounted.
 #[test]
 fn an_uncounted_render_traces_the_same_rays_and_counts_only_them() {

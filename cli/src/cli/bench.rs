@@ -249,6 +249,7 @@ fn run_peers(a: PeersArgs) -> Result<()> {
         (peers::RAYTREE[0], "embree medium"),
         (peers::RAYTREE[2], "embree medium"),
         (peers::RAYTREE[4], "embree high"),
+        (peers::RAYTREE[5], "embree medium"),
     ] {
         if let Some(g) = peers::geomean_build_ratio(&results, of, to) {
             say!(

@@ -173,6 +173,9 @@ pub enum BuilderArg {
     Hybrid,
     /// Binned SAH with spatial splits (Stich, Friedrich and Dietrich 2009).
     Sbvh,
+    /// Linear BVH: Morton order, split at the highest differing bit, leaves
+    /// by SAH (the fast build).
+    Lbvh,
 }
 
 impl From<BuilderArg> for Builder {
@@ -181,6 +184,7 @@ impl From<BuilderArg> for Builder {
             BuilderArg::Sah => Builder::Sah,
             BuilderArg::Hybrid => Builder::Hybrid,
             BuilderArg::Sbvh => Builder::Sbvh,
+            BuilderArg::Lbvh => Builder::Lbvh,
         }
     }
 }

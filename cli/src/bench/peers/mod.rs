@@ -8,9 +8,9 @@
 //! - path: the bounce rays of one path-traced frame (5 diffuse bounces, the
 //!   dual-split paper's workload), closest hit (incoherent, long).
 //!
-//! raytree runs as five contenders ([`RAYTREE`]: the binary BVH with STACK,
+//! raytree runs as six contenders ([`RAYTREE`]: the binary BVH with STACK,
 //! `bvh4`, `bvh8` and `cwbvh` from the same SAH tree, `bvh8` over an SBVH
-//! build), Embree at its medium and high build qualities. Every contender
+//! build and over an LBVH build), Embree at its medium and high build qualities. Every contender
 //! traces each set on all threads, the contenders taking turns, several
 //! times; the median time gives Mrays/s, reported beside the ratio to
 //! raytree's BVH with STACK, and a [`FASTEST`] row takes raytree's best per
@@ -58,13 +58,15 @@ pub type Entry<'a> = (String, f64, Box<dyn Contender + 'a>);
 
 /// raytree's own contenders: the binary BVH with STACK (every ratio's
 /// reference), the wide BVHs from the same SAH tree, and `bvh8` over an
-/// SBVH build (spatial splits, the counterpart of Embree's high quality).
-pub const RAYTREE: [&str; 5] = [
+/// SBVH build (spatial splits, the counterpart of Embree's high quality)
+/// and over an LBVH build (the fast build for changing scenes).
+pub const RAYTREE: [&str; 6] = [
     "raytree bvh stack",
     "raytree bvh4",
     "raytree bvh8",
     "raytree cwbvh",
     "raytree bvh8 sbvh",
+    "raytree bvh8 lbvh",
 ];
 
 /// The row that takes, per workload, the fastest of [`RAYTREE`].
@@ -272,8 +274,18 @@ impl<'b> Round<'b> {
         });
         let sb8: Box<dyn Contender> = Box::new(sb8?);
         let sb8_s = t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let lbvh = Bvh::build(
+            &scene.triangles,
+            &BuildOptions::new(Builder::Lbvh)
+                .with_max_leaf_size(o.build.max_leaf_size)
+                .with_sah_block(o.build.sah_block),
+        );
+        let lb8: Box<dyn Contender> = Box::new(Bvh8::from_bvh(&lbvh, tris())?);
+        let lb8_s = t.elapsed().as_secs_f64();
+        drop(lbvh);
         let mut configs = vec![format!(
-            "raytree: {} builder, leaves of at most {} triangles, SAH leaf cost per {} (bvh8 sbvh: the SBVH builder); bvh4/bvh8/cwbvh collapsed by SAH; wide kernels on the {} SIMD path; build times include the BVH build",
+            "raytree: {} builder, leaves of at most {} triangles, SAH leaf cost per {} (bvh8 sbvh / bvh8 lbvh: the SBVH / LBVH builder); bvh4/bvh8/cwbvh collapsed by SAH; wide kernels on the {} SIMD path; build times include the BVH build",
             o.build.builder.name(),
             o.build.max_leaf_size,
             match o.build.sah_block {
@@ -287,6 +299,7 @@ impl<'b> Round<'b> {
             (RAYTREE[2].into(), b8_s, b8),
             (RAYTREE[3].into(), cw_s, cw),
             (RAYTREE[4].into(), sb8_s, sb8),
+            (RAYTREE[5].into(), lb8_s, lb8),
         ];
         #[cfg(feature = "obvhs")]
         {
