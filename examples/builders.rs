@@ -49,7 +49,7 @@ struct Variant {
     optimize: bool,
 }
 
-const VARIANTS: [Variant; 6] = [
+const VARIANTS: [Variant; 7] = [
     Variant {
         name: "sah",
         builder: Builder::Sah,
@@ -73,6 +73,11 @@ const VARIANTS: [Variant; 6] = [
     Variant {
         name: "sah+opt",
         builder: Builder::Sah,
+        optimize: true,
+    },
+    Variant {
+        name: "lbvh+opt",
+        builder: Builder::Lbvh,
         optimize: true,
     },
     Variant {
