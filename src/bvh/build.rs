@@ -235,12 +235,7 @@ pub(super) fn build(triangles: &[Triangle], opts: &BuildOptions) -> Bvh {
 fn binned(ctx: &Ctx, mut refs: Vec<PrimRef>) -> (Vec<Node>, Vec<u32>) {
     let mut nodes = Vec::with_capacity(ctx.node_capacity(refs.len()));
     if refs.is_empty() {
-        nodes.push(Node {
-            bounds: Aabb::EMPTY,
-            parent: NO_PARENT,
-            depth: 0,
-            kind: NodeKind::Leaf { first: 0, count: 0 },
-        });
+        nodes.push(Node::EMPTY_ROOT);
     } else {
         let b = bounds_of(&refs);
         // The stable partition of large nodes writes here; small nodes are

@@ -63,13 +63,7 @@ pub(super) fn build(
     spawn_depth: u32,
 ) -> (Vec<Node>, Vec<u32>) {
     if refs.is_empty() {
-        let root = Node {
-            bounds: Aabb::EMPTY,
-            parent: NO_PARENT,
-            depth: 0,
-            kind: NodeKind::Leaf { first: 0, count: 0 },
-        };
-        return (vec![root], Vec::new());
+        return (vec![Node::EMPTY_ROOT], Vec::new());
     }
     let mut keys: Vec<(u64, u32)> = codes(&refs)
         .into_par_iter()

@@ -37,6 +37,14 @@ pub enum NodeKind {
 }
 
 impl Node {
+    /// The one node of a tree over no triangles: an empty leaf.
+    pub const EMPTY_ROOT: Node = Node {
+        bounds: Aabb::EMPTY,
+        parent: super::NO_PARENT,
+        depth: 0,
+        kind: NodeKind::Leaf { first: 0, count: 0 },
+    };
+
     /// Whether the node is a [`NodeKind::Leaf`].
     pub fn is_leaf(&self) -> bool {
         matches!(self.kind, NodeKind::Leaf { .. })

@@ -587,13 +587,7 @@ pub(super) fn build(
     opts: &BuildOptions,
 ) -> (Vec<Node>, Vec<u32>) {
     if live.is_empty() {
-        let leaf = Node {
-            bounds: Aabb::EMPTY,
-            parent: NO_PARENT,
-            depth: 0,
-            kind: NodeKind::Leaf { first: 0, count: 0 },
-        };
-        return (vec![leaf], Vec::new());
+        return (vec![Node::EMPTY_ROOT], Vec::new());
     }
     let refs: Vec<PrimRef> = live
         .iter()
