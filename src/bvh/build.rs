@@ -177,19 +177,24 @@ struct Ctx<'a> {
 }
 
 impl Ctx<'_> {
-    /// Room for the nodes of a subtree of `n` references: at most `2n − 1`
-    /// whatever the tree, reserved at about what the builder's leaves hold
-    /// (SAH leaves of up to 8 triangles held 1.6 to 2.1 on average on
-    /// chess, hairball and dragon; one exactly at a leaf size of 1) so
-    /// that the list rarely grows and the heap meter reports what is used.
     fn node_capacity(&self, n: usize) -> usize {
-        let max_leaf = self.opts.max_leaf_size as f64;
-        let per_leaf = match self.opts.builder {
-            Builder::Hybrid => (max_leaf / 2.0).floor().max(1.0),
-            Builder::Sah | Builder::Sbvh | Builder::Lbvh => max_leaf.min(1.6),
-        };
-        ((2.0 * n as f64 / per_leaf) as usize + 1).min(2 * n.max(1) - 1)
+        node_capacity(self.opts, n)
     }
+}
+
+/// Room for the nodes of a subtree of `n` references: at most `2n − 1`
+/// whatever the tree, reserved at about what the builder's leaves hold
+/// (SAH leaves of up to 8 triangles held 1.6 to 2.1 on average on chess,
+/// hairball and dragon, LBVH leaves 1.6 to 2.1 on chess, hairball, atrium,
+/// bunny, samurai and hawaii; one exactly at a leaf size of 1) so that the list rarely grows and the heap meter reports what is
+/// used.
+pub(super) fn node_capacity(opts: &BuildOptions, n: usize) -> usize {
+    let max_leaf = opts.max_leaf_size as f64;
+    let per_leaf = match opts.builder {
+        Builder::Hybrid => (max_leaf / 2.0).floor().max(1.0),
+        Builder::Sah | Builder::Sbvh | Builder::Lbvh => max_leaf.min(1.6),
+    };
+    ((2.0 * n as f64 / per_leaf) as usize + 1).min(2 * n.max(1) - 1)
 }
 
 pub(super) fn build(triangles: &[Triangle], opts: &BuildOptions) -> Bvh {

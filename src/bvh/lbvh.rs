@@ -17,7 +17,7 @@
 //! pairs and the subtrees built on other threads are appended in preorder.
 
 use super::binning::{Blocks, PrimRef};
-use super::build::{append_subtree, bounds_of, BuildOptions, PARALLEL_SUBTREE};
+use super::build::{append_subtree, bounds_of, node_capacity, BuildOptions, PARALLEL_SUBTREE};
 use super::{Node, NodeKind, NO_PARENT};
 use crate::geometry::Aabb;
 use rayon::prelude::*;
@@ -48,6 +48,7 @@ fn axis_of_bit(p: u32) -> u8 {
 }
 
 struct Ctx<'a> {
+    opts: &'a BuildOptions,
     /// References in code order, and their codes.
     refs: &'a [PrimRef],
     codes: &'a [u64],
@@ -75,13 +76,14 @@ pub(super) fn build(
     drop(refs);
     let codes: Vec<u64> = keys.into_par_iter().map(|(k, _)| k).collect();
     let ctx = Ctx {
+        opts,
         refs: &sorted,
         codes: &codes,
         max_leaf: opts.max_leaf_size,
         blocks: opts.blocks(),
         spawn_depth,
     };
-    let mut nodes = Vec::with_capacity(2 * sorted.len());
+    let mut nodes = Vec::with_capacity(node_capacity(opts, sorted.len()));
     subtree(&ctx, 0, sorted.len(), 0, NO_PARENT, &mut nodes);
     nodes.shrink_to_fit();
     let prims = sorted.par_iter().map(PrimRef::id).collect();
@@ -144,8 +146,8 @@ fn subtree(
 ) -> (Aabb, f32) {
     let n = hi - lo;
     let id = nodes.len() as u32;
-    let leaf = |nodes: &mut Vec<Node>| {
-        let (bounds, _) = bounds_of(&ctx.refs[lo..hi]);
+    // A leaf over the range, whose box is `bounds`.
+    let leaf = |nodes: &mut Vec<Node>, bounds: Aabb| {
         nodes.push(Node {
             bounds,
             parent,
@@ -159,7 +161,7 @@ fn subtree(
     };
     // One block is never dearer than a split (as in the SAH build).
     if n == 1 || (n <= ctx.max_leaf && n <= ctx.blocks.size()) {
-        return leaf(nodes);
+        return leaf(nodes, bounds_of(&ctx.refs[lo..hi]).0);
     }
     let (mid, axis) = split(&ctx.codes[lo..hi]);
     let mid = lo + mid;
@@ -174,7 +176,7 @@ fn subtree(
         },
     });
     let ((lb, lc), (rb, rc), right) = if n > PARALLEL_SUBTREE && depth < ctx.spawn_depth {
-        let mut theirs = Vec::with_capacity(2 * (hi - mid));
+        let mut theirs = Vec::with_capacity(node_capacity(ctx.opts, hi - mid));
         let (l, r) = rayon::join(
             || subtree(ctx, lo, mid, depth + 1, id, nodes),
             || subtree(ctx, mid, hi, depth + 1, NO_PARENT, &mut theirs),
@@ -190,8 +192,9 @@ fn subtree(
     let cost = bounds.area() + lc + rc;
     if n <= ctx.max_leaf && bounds.area() * ctx.blocks.cost(n as u32) <= cost {
         // The subtree's nodes are all after its root: one leaf instead.
+        // Its box, the union of its children's, is the leaf's.
         nodes.truncate(id as usize);
-        return leaf(nodes);
+        return leaf(nodes, bounds);
     }
     let node = &mut nodes[id as usize];
     node.bounds = bounds;
