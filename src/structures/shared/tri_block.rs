@@ -15,8 +15,8 @@
 use super::leaf::{take_hit, LAST};
 use crate::geometry::{Hit, Ray, Triangle, ILL_CONDITIONED, TINY_DETERMINANT, TINY_SCALE};
 use crate::stats::{Stats, Tally};
-use glam::Vec4;
-use std::ops::{Add, Mul, Sub};
+use glam::{BVec4A, Vec4};
+use std::ops::{Add, BitAnd, BitOr, Mul, Not, Sub};
 
 /// Triangles per block.
 pub const LANES: usize = 4;
@@ -279,11 +279,17 @@ impl BlockRay {
 /// The lanes one pass of the block test runs on: one block's four
 /// triangles ([`Vec4`]), or two consecutive blocks of a leaf as eight (the
 /// wide kernel's AVX2 and AVX-512 paths). Every operation is lane by lane,
-/// in f32, as the scalar test computes it; comparisons give bit masks (bit
-/// `l` for lane `l`, false on NaN).
+/// in f32, as the scalar test computes it; comparisons give lane masks
+/// ([`Lanes::Mask`], false on NaN), combined in vector registers and turned
+/// into bits (bit `l` for lane `l`) once per decision.
 pub trait Lanes: Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> {
     /// Blocks per pass (1 or 2).
     const BLOCKS: usize;
+    /// A lane mask.
+    type Mask: Copy
+        + BitAnd<Output = Self::Mask>
+        + BitOr<Output = Self::Mask>
+        + Not<Output = Self::Mask>;
     /// Row `r` of block `i` in lanes 0–3 and, with two blocks per pass, of
     /// block `j` in lanes 4–7.
     fn rows(blocks: &[TriBlock], i: usize, j: usize, r: usize) -> Self;
@@ -293,22 +299,30 @@ pub trait Lanes: Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = S
     fn abs(self) -> Self;
     /// `f32::signum` of each lane.
     fn signum(self) -> Self;
+    /// The lesser of each lane pair (either where one is NaN: callers use it
+    /// only where a NaN lane's answer does not matter).
+    fn min(self, o: Self) -> Self;
+    /// The greater of each lane pair (NaN as [`Lanes::min`]).
+    fn max(self, o: Self) -> Self;
     /// Lanes where `self < o`.
-    fn lt(self, o: Self) -> u32;
+    fn lt(self, o: Self) -> Self::Mask;
     /// Lanes where `self > o`.
-    fn gt(self, o: Self) -> u32;
+    fn gt(self, o: Self) -> Self::Mask;
     /// Lanes where `self <= o`.
-    fn le(self, o: Self) -> u32;
+    fn le(self, o: Self) -> Self::Mask;
     /// Lanes where `self >= o`.
-    fn ge(self, o: Self) -> u32;
+    fn ge(self, o: Self) -> Self::Mask;
     /// Lanes where `self == o`.
-    fn eq(self, o: Self) -> u32;
+    fn eq(self, o: Self) -> Self::Mask;
+    /// Bit `l` set for each lane `l` of `m` set.
+    fn bits(m: Self::Mask) -> u32;
     /// The lanes, the first `4 · BLOCKS` meaningful.
     fn lanes(self) -> [f32; 8];
 }
 
 impl Lanes for Vec4 {
     const BLOCKS: usize = 1;
+    type Mask = BVec4A;
     #[inline(always)]
     fn rows(blocks: &[TriBlock], i: usize, _j: usize, r: usize) -> Self {
         Vec4::from_array(blocks[i].v[r])
@@ -326,24 +340,36 @@ impl Lanes for Vec4 {
         Vec4::signum(self)
     }
     #[inline(always)]
-    fn lt(self, o: Self) -> u32 {
-        self.cmplt(o).bitmask()
+    fn min(self, o: Self) -> Self {
+        Vec4::min(self, o)
     }
     #[inline(always)]
-    fn gt(self, o: Self) -> u32 {
-        self.cmpgt(o).bitmask()
+    fn max(self, o: Self) -> Self {
+        Vec4::max(self, o)
     }
     #[inline(always)]
-    fn le(self, o: Self) -> u32 {
-        self.cmple(o).bitmask()
+    fn lt(self, o: Self) -> BVec4A {
+        self.cmplt(o)
     }
     #[inline(always)]
-    fn ge(self, o: Self) -> u32 {
-        self.cmpge(o).bitmask()
+    fn gt(self, o: Self) -> BVec4A {
+        self.cmpgt(o)
     }
     #[inline(always)]
-    fn eq(self, o: Self) -> u32 {
-        self.cmpeq(o).bitmask()
+    fn le(self, o: Self) -> BVec4A {
+        self.cmple(o)
+    }
+    #[inline(always)]
+    fn ge(self, o: Self) -> BVec4A {
+        self.cmpge(o)
+    }
+    #[inline(always)]
+    fn eq(self, o: Self) -> BVec4A {
+        self.cmpeq(o)
+    }
+    #[inline(always)]
+    fn bits(m: BVec4A) -> u32 {
+        m.bitmask()
     }
     #[inline(always)]
     fn lanes(self) -> [f32; 8] {
@@ -446,10 +472,11 @@ pub fn intersect_lanes<L: Lanes, const ANY: bool, S: Stats>(
         let exact = u.eq(zero) | v.eq(zero) | w.eq(zero);
         let conditioned =
             det_abs.ge(m * m * L::splat(ILL_CONDITIONED)) & m.ge(L::splat(TINY_SCALE));
-        // Edge functions of mixed signs, or a zero determinant: a miss.
-        let neg = u.lt(zero) | v.lt(zero) | w.lt(zero);
-        let pos = u.gt(zero) | v.gt(zero) | w.gt(zero);
-        let outside = (neg & pos) | det.eq(zero);
+        // Edge functions of mixed signs, or a zero determinant: a miss. By
+        // the least and the greatest of the three (a lane with a NaN among
+        // them has a NaN determinant, so it is not `conditioned`: it takes
+        // the exact path whatever `outside` says).
+        let outside = (u.min(v).min(w).lt(zero) & u.max(v).max(w).gt(zero)) | det.eq(zero);
         // Lanes in use: every lane of a block followed by another, then the
         // used lanes of the pass's last block.
         // The pass's last block ends the leaf where its last lane is unused
@@ -463,7 +490,7 @@ pub fn intersect_lanes<L: Lanes, const ANY: bool, S: Stats>(
         let last = blocks[j].prims[LANES - 1] & LAST != 0;
         // Most passes: every used lane a certain miss (outside, decided in
         // f32). Nothing more to compute.
-        let missed = outside & conditioned & !exact;
+        let missed = L::bits(outside & conditioned & !exact);
         if missed & used == used {
             tally.triangles += n as u32;
             if last {
@@ -474,7 +501,6 @@ pub fn intersect_lanes<L: Lanes, const ANY: bool, S: Stats>(
             continue;
         }
         let t_scaled = u * (sz * a_z) + v * (sz * b_z) + w * (sz * c_z);
-        let precise = exact | !conditioned;
         // Overflow, a determinant too small for 1/det, or T zero or
         // subnormal (its sign may be lost): exact paths too.
         let t_mag = t_scaled.abs();
@@ -483,13 +509,14 @@ pub fn intersect_lanes<L: Lanes, const ANY: bool, S: Stats>(
             & det_abs.lt(inf)
             & t_mag.ge(L::splat(f32::MIN_POSITIVE))
             & t_mag.lt(inf);
-        let precise = (precise | (!outside & !finite)) & used;
+        let precise = exact | !conditioned | (!outside & !finite);
         // T flipped by det's sign, against the interval at the pass's start
         // (a lane beyond it is beyond any later, smaller one too).
         let t_abs = t_scaled * det.signum();
         let within = t_abs.ge(tmin * det_abs) & t_abs.le(L::splat(*tmax) * det_abs);
-        let candidates = (within & !outside & finite) & !precise;
-        let mut todo = (candidates | precise) & used;
+        let candidates = within & !outside & finite;
+        let precise = L::bits(precise) & used;
+        let mut todo = (L::bits(candidates) | precise) & used;
         let (v, w, det, t_scaled) = (v.lanes(), w.lanes(), det.lanes(), t_scaled.lanes());
         let t_abs = t_abs.lanes();
         while todo != 0 {

@@ -316,6 +316,38 @@ mod x86 {
         };
     }
 
+    /// A mask of eight lanes (all bits set in a lane that is true), as
+    /// `Lanes8`'s comparisons give it; made only where a `Lanes8` is.
+    #[derive(Clone, Copy)]
+    pub struct Mask8(__m256);
+
+    impl std::ops::BitAnd for Mask8 {
+        type Output = Self;
+        #[inline(always)]
+        fn bitand(self, o: Self) -> Self {
+            Mask8(avx!(_mm256_and_ps(self.0, o.0)))
+        }
+    }
+
+    impl std::ops::BitOr for Mask8 {
+        type Output = Self;
+        #[inline(always)]
+        fn bitor(self, o: Self) -> Self {
+            Mask8(avx!(_mm256_or_ps(self.0, o.0)))
+        }
+    }
+
+    impl std::ops::Not for Mask8 {
+        type Output = Self;
+        #[inline(always)]
+        fn not(self) -> Self {
+            avx!({
+                let ones = _mm256_castsi256_ps(_mm256_set1_epi32(-1));
+                Mask8(_mm256_xor_ps(self.0, ones))
+            })
+        }
+    }
+
     impl std::ops::Add for Lanes8 {
         type Output = Self;
         #[inline(always)]
@@ -342,6 +374,7 @@ mod x86 {
 
     impl Lanes for Lanes8 {
         const BLOCKS: usize = 2;
+        type Mask = Mask8;
         #[inline(always)]
         fn rows(blocks: &[TriBlock], i: usize, j: usize, r: usize) -> Self {
             let (a, b) = (&blocks[i].v[r], &blocks[j].v[r]);
@@ -369,24 +402,36 @@ mod x86 {
             })
         }
         #[inline(always)]
-        fn lt(self, o: Self) -> u32 {
-            avx!(_mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(self.0, o.0)) as u32)
+        fn min(self, o: Self) -> Self {
+            Lanes8(avx!(_mm256_min_ps(self.0, o.0)))
         }
         #[inline(always)]
-        fn gt(self, o: Self) -> u32 {
-            avx!(_mm256_movemask_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(self.0, o.0)) as u32)
+        fn max(self, o: Self) -> Self {
+            Lanes8(avx!(_mm256_max_ps(self.0, o.0)))
         }
         #[inline(always)]
-        fn le(self, o: Self) -> u32 {
-            avx!(_mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(self.0, o.0)) as u32)
+        fn lt(self, o: Self) -> Mask8 {
+            Mask8(avx!(_mm256_cmp_ps::<_CMP_LT_OQ>(self.0, o.0)))
         }
         #[inline(always)]
-        fn ge(self, o: Self) -> u32 {
-            avx!(_mm256_movemask_ps(_mm256_cmp_ps::<_CMP_GE_OQ>(self.0, o.0)) as u32)
+        fn gt(self, o: Self) -> Mask8 {
+            Mask8(avx!(_mm256_cmp_ps::<_CMP_GT_OQ>(self.0, o.0)))
         }
         #[inline(always)]
-        fn eq(self, o: Self) -> u32 {
-            avx!(_mm256_movemask_ps(_mm256_cmp_ps::<_CMP_EQ_OQ>(self.0, o.0)) as u32)
+        fn le(self, o: Self) -> Mask8 {
+            Mask8(avx!(_mm256_cmp_ps::<_CMP_LE_OQ>(self.0, o.0)))
+        }
+        #[inline(always)]
+        fn ge(self, o: Self) -> Mask8 {
+            Mask8(avx!(_mm256_cmp_ps::<_CMP_GE_OQ>(self.0, o.0)))
+        }
+        #[inline(always)]
+        fn eq(self, o: Self) -> Mask8 {
+            Mask8(avx!(_mm256_cmp_ps::<_CMP_EQ_OQ>(self.0, o.0)))
+        }
+        #[inline(always)]
+        fn bits(m: Mask8) -> u32 {
+            avx!(_mm256_movemask_ps(m.0) as u32)
         }
         #[inline(always)]
         fn lanes(self) -> [f32; 8] {
