@@ -960,9 +960,11 @@ fn trace_kernel<
             }
         }
         // Pop the nearest pending child still in reach: one entered beyond
-        // the closest hit would fail its box test now.
+        // the closest hit would fail its box test now. An any-hit trace
+        // (without a hit sink) ends at its first hit and never shrinks the
+        // interval, so each of its entries, entered within it, is in reach.
         while let Some((r, t)) = stack.pop() {
-            if t <= tmax {
+            if (ANY && !S::HITS) || t <= tmax {
                 node = r;
                 continue 'visit;
             }
