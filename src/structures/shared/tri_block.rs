@@ -516,7 +516,7 @@ pub fn intersect_lanes<L: Lanes, const ANY: bool, S: Stats>(
         let within = t_abs.ge(tmin * det_abs) & t_abs.le(L::splat(*tmax) * det_abs);
         let candidates = within & !outside & finite;
         let precise = L::bits(precise) & used;
-        let mut todo = (L::bits(candidates) | precise) & used;
+        let mut todo = (L::bits(candidates) & used) | precise;
         let (v, w, det, t_scaled) = (v.lanes(), w.lanes(), det.lanes(), t_scaled.lanes());
         let t_abs = t_abs.lanes();
         while todo != 0 {
